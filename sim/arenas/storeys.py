@@ -1,0 +1,288 @@
+"""Stacked multi-level worlds: a car park, an office building, and seeded random ones.
+
+Every world here shares one skeleton (:func:`build_storeys`): a rectangular footprint, floors stacked at
+the given heights, ramps alternating between the east side (rising +y) and the west side (rising -y),
+and a ring lane on every level. The main route drives the ring of the ground level, climbs every ramp
+with a ring on each level, comes back down and returns to its start, so the lower levels are revisited
+after the upper ones, as in the NeuroSLAM paper's datasets. Flavours add what makes each place look like
+itself: pillars, parked cars and lane markings; rooms and doorways; random obstacles.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .builder import Rect, WorldBuilder, subtract_rectangles
+
+__all__ = ["StoreyLayout", "WorldSource", "build_storeys", "carpark", "building", "generated"]
+
+RAMP_WIDTH = 4.0  # m
+RAMP_END_MARGIN = 0.4  # m: waypoints just beyond a ramp's ends, on flat floor
+SLAB_THICKNESS = 0.25  # m
+
+
+@dataclass(frozen=True)
+class WorldSource:
+    """A world as data: its MJCF text, the routes sidecar content, and its name."""
+
+    name: str
+    xml: str
+    routes: dict
+
+
+@dataclass(frozen=True)
+class StoreyLayout:
+    """Geometry of a stacked world.
+
+    Attributes:
+        width: footprint along x, m.
+        depth: footprint along y, m.
+        levels: floor heights, m, starting at 0 and increasing.
+        slope: ramp slope, radians (at most 12 degrees).
+        roof: True to close the top level with a roof (building), False for an open deck (car park).
+    """
+
+    width: float
+    depth: float
+    levels: tuple[float, ...]
+    slope: float = math.radians(10.0)
+    roof: bool = False
+    lane_inset_x: float = 6.0
+    lane_inset_y: float = 2.5
+    wall_heights: tuple[float, ...] = field(default=())
+
+    def ramp_length(self, k: int) -> float:
+        """Horizontal length of the ramp from level ``k`` to ``k + 1``, m."""
+        return (self.levels[k + 1] - self.levels[k]) / math.tan(self.slope)
+
+    def ramp_area(self, k: int) -> Rect:
+        """Footprint of the ramp from level ``k`` to ``k + 1``: east side for even k, west for odd."""
+        half = self.ramp_length(k) / 2
+        if k % 2 == 0:
+            return Rect(self.width / 2 - RAMP_WIDTH, self.width / 2, -half, half)
+        return Rect(-self.width / 2, -self.width / 2 + RAMP_WIDTH, -half, half)
+
+    def validate(self) -> None:
+        if len(self.levels) < 2 or self.levels[0] != 0.0 or any(b <= a for a, b in zip(self.levels, self.levels[1:])):
+            raise ValueError(f"levels={self.levels!r}: need two or more increasing heights starting at 0")
+        if not 0 < self.slope <= math.radians(12.0) + 1e-9:
+            raise ValueError(f"slope={self.slope!r}: must be in (0, 12 degrees]")
+        longest = max(self.ramp_length(k) for k in range(len(self.levels) - 1))
+        if self.depth < longest + 2 * self.lane_inset_y + 4.0:
+            raise ValueError(f"depth={self.depth!r}: too short for a {longest:.1f} m ramp plus turning space")
+        if self.width < 2 * self.lane_inset_x + 8.0:
+            raise ValueError(f"width={self.width!r}: too narrow for a ring lane")
+
+
+def _lanes(layout: StoreyLayout) -> dict[str, float]:
+    w, d = layout.width / 2, layout.depth / 2
+    return {
+        "east": w - layout.lane_inset_x, "west": -(w - layout.lane_inset_x),
+        "north": d - layout.lane_inset_y, "south": -(d - layout.lane_inset_y),
+        "east_up": w - 1.3, "east_down": w - 2.7, "west_up": -(w - 1.3), "west_down": -(w - 2.7),
+    }
+
+
+def main_route(layout: StoreyLayout) -> list[list[float]]:
+    """Waypoints of the main route: up through every level with a ring on each, then all the way down."""
+    lane = _lanes(layout)
+    e, w, n, s = lane["east"], lane["west"], lane["north"], lane["south"]
+    h = layout.levels
+    top = len(h) - 1
+    points: list[tuple[float, float, float]] = [(w, s, 0), (e, s, 0), (e, n, 0), (w, n, 0), (w, s, 0)]
+    # climb: ramp k starts at the south end (east side, k even) or the north end (west side, k odd)
+    for k in range(top):
+        half = layout.ramp_length(k) / 2 + RAMP_END_MARGIN
+        if k % 2 == 0:
+            x = lane["east_up"]
+            points += [(x, s, h[k]), (x, -half, h[k]), (x, half, h[k + 1]), (x, n, h[k + 1])]
+            ring = [(w, n), (w, s), (e, s), (e, n)]
+        else:
+            x = lane["west_up"]
+            points += [(x, n, h[k]), (x, half, h[k]), (x, -half, h[k + 1]), (x, s, h[k + 1])]
+            ring = [(e, s), (e, n), (w, n), (w, s)]
+        points += [(px, py, h[k + 1]) for px, py in ring]
+    # descend the same ramps in the other lane, top first
+    for k in reversed(range(top)):
+        half = layout.ramp_length(k) / 2 + RAMP_END_MARGIN
+        if k % 2 == 0:
+            x = lane["east_down"]
+            points += [(x, n, h[k + 1]), (x, half, h[k + 1]), (x, -half, h[k]), (x, s, h[k])]
+        else:
+            x = lane["west_down"]
+            points += [(x, s, h[k + 1]), (x, -half, h[k + 1]), (x, half, h[k]), (x, n, h[k])]
+    cleaned: list[list[float]] = []
+    for p in points:
+        q = [round(float(v), 3) for v in p]
+        if not cleaned or q != cleaned[-1]:
+            cleaned.append(q)
+    if cleaned[-1] == cleaned[0]:
+        cleaned.pop()
+    return cleaned
+
+
+def build_storeys(builder: WorldBuilder, layout: StoreyLayout) -> list[Rect]:
+    """Floors, ramps, outer walls and lights of a stacked world; returns the open core area of the rings.
+
+    Level ``k`` is enclosed by outer walls up to the next floor; the top level gets a roof (or a 1.1 m
+    parapet when ``layout.roof`` is False).
+    """
+    layout.validate()
+    w, d = layout.width / 2, layout.depth / 2
+    footprint = Rect(-w, w, -d, d)
+    top = len(layout.levels) - 1
+    for k, height in enumerate(layout.levels):
+        holes = [layout.ramp_area(k - 1)] if k > 0 else []
+        floor_material = builder.material("floor")
+        builder.slab(footprint, height, thickness=SLAB_THICKNESS, material=floor_material, holes=holes)
+        if k > 0:  # the slab's underside seen from the level below, drawn as its own ceiling
+            ceiling = builder.material("ceiling")
+            for r in subtract_rectangles(footprint, holes):
+                builder.box([(r.x0 + r.x1) / 2, (r.y0 + r.y1) / 2, height - SLAB_THICKNESS - 0.005],
+                            [(r.x1 - r.x0) / 2, (r.y1 - r.y0) / 2, 0.005], material=ceiling, collide=False,
+                            kind="ceiling")
+        if k < top:
+            builder.ramp(layout.ramp_area(k), "+y" if k % 2 == 0 else "-y", height, layout.levels[k + 1])
+        upper = layout.levels[k + 1] if k < top else height + (3.0 if layout.roof else 1.1)
+        for start, end in (((-w, -d), (w, -d)), ((w, -d), (w, d)), ((w, d), (-w, d)), ((-w, d), (-w, -d))):
+            builder.wall(start, end, height, upper, material=builder.material("wall"))
+    if layout.roof:
+        roof_height = layout.levels[-1] + 3.0
+        builder.slab(footprint, roof_height + SLAB_THICKNESS, thickness=SLAB_THICKNESS,
+                     material=builder.material("ceiling"))
+    for x in (-w / 2, w / 2):
+        builder.light([x, 0, layout.levels[-1] + 20], [0.2, 0.1, -1], diffuse=0.35)
+    lane = _lanes(layout)
+    margin = 1.8
+    return [Rect(lane["west"] + margin, lane["east"] - margin, lane["south"] + margin, lane["north"] - margin)]
+
+
+def _wall_panels(builder: WorldBuilder, layout: StoreyLayout, spacing: float = 5.0) -> None:
+    """Distinct coloured panels on the inside of the outer walls: landmarks for place recognition."""
+    w, d = layout.width / 2, layout.depth / 2
+    for height in layout.levels:
+        for x in np.arange(-w + 3, w - 2, spacing):
+            for y, sign in ((-d, 1), (d, -1)):
+                builder.box([x, y + sign * 0.13, height + 1.4], [0.7, 0.03, 0.45], material=builder.material("sign"),
+                            collide=False, kind="sign")
+        for y in np.arange(-d + 3, d - 2, spacing):
+            for x, sign in ((-w, 1), (w, -1)):
+                builder.box([x + sign * 0.13, y, height + 1.4], [0.03, 0.7, 0.45], material=builder.material("sign"),
+                            collide=False, kind="sign")
+
+
+def _lane_markings(builder: WorldBuilder, layout: StoreyLayout) -> None:
+    """Dashed lines along the ring lanes of every level (flat, not colliding)."""
+    lane = _lanes(layout)
+    paint = builder.material("marking")
+    for height in layout.levels:
+        z = height + 0.003
+        for y in (lane["south"], lane["north"]):
+            for x in np.arange(lane["west"] + 1.0, lane["east"] - 0.5, 2.0):
+                builder.box([x, y, z], [0.5, 0.06, 0.002], material=paint, collide=False, kind="marking")
+        for x in (lane["west"], lane["east"]):
+            for y in np.arange(lane["south"] + 1.0, lane["north"] - 0.5, 2.0):
+                builder.box([x, y, z], [0.06, 0.5, 0.002], material=paint, collide=False, kind="marking")
+
+
+def _parked_car(builder: WorldBuilder, x: float, y: float, floor: float, yaw: float) -> None:
+    body = builder.material("car")
+    length, width = builder.rng.uniform(3.8, 4.8), builder.rng.uniform(1.7, 1.9)
+    builder.box([x, y, floor + 0.45], [length / 2, width / 2, 0.3], material=body, yaw=yaw, kind="car")
+    cabin = builder.material("car")
+    builder.box([x - 0.2 * math.cos(yaw), y - 0.2 * math.sin(yaw), floor + 1.0],
+                [length * 0.28, width / 2 - 0.1, 0.26], material=cabin, yaw=yaw, kind="car")
+
+
+def carpark(seed: int = 1) -> WorldSource:
+    """A two-level car park, 40 × 30 m per level, 3 m between levels, one 10-degree ramp."""
+    layout = StoreyLayout(width=40.0, depth=30.0, levels=(0.0, 3.0))
+    builder = WorldBuilder("carpark", seed)
+    (core,) = build_storeys(builder, layout)
+    _wall_panels(builder, layout)
+    _lane_markings(builder, layout)
+    for k, height in enumerate(layout.levels):
+        pillar = builder.material("pillar")
+        xs = np.linspace(core.x0 + 1.0, core.x1 - 1.0, 5)
+        for x in xs:
+            for y in (core.y0 + 0.6, 0.0, core.y1 - 0.6):
+                if k == 0:
+                    builder.box([x, y, 1.5], [0.3, 0.3, 1.5], material=pillar, kind="pillar")
+                else:
+                    builder.cylinder([x, y, height + 2.0], 0.08, 2.0, material=pillar)
+        for x0, x1 in zip(xs[:-1], xs[1:]):
+            for y in (core.y0 + 2.8, core.y1 - 2.8):
+                if builder.rng.uniform() < 0.75:
+                    _parked_car(builder, (x0 + x1) / 2, y, height, math.pi / 2 + builder.rng.normal(0, 0.05))
+    return WorldSource("carpark", builder.to_xml(), {"levels": list(layout.levels), "routes": {
+        "main": {"waypoints": main_route(layout), "loop": True}}})
+
+
+def _rooms(builder: WorldBuilder, core: Rect, floor: float, height: float, rooms: int) -> None:
+    """A block of ``rooms`` rooms filling ``core``, each with a doorway onto the corridor around it."""
+    wall = builder.material("wall")
+    top = floor + height
+    door = 1.2
+    builder.wall((core.x0, core.y0), (core.x0, core.y1), floor, top, material=wall)
+    builder.wall((core.x1, core.y0), (core.x1, core.y1), floor, top, material=wall)
+    xs = np.linspace(core.x0, core.x1, rooms + 1)
+    for x in xs[1:-1]:
+        builder.wall((x, core.y0), (x, core.y1), floor, top, material=builder.material("wall"))
+    for a, b in zip(xs[:-1], xs[1:]):
+        middle = (a + b) / 2
+        for y in (core.y0, core.y1):  # a doorway in each room's long sides
+            builder.wall((a, y), (middle - door / 2, y), floor, top, material=wall)
+            builder.wall((middle + door / 2, y), (b, y), floor, top, material=wall)
+        furniture = builder.material("car")
+        builder.box([middle + builder.rng.uniform(-1, 1), (core.y0 + core.y1) / 2, floor + 0.4],
+                    [0.8, 0.5, 0.4], material=furniture, kind="furniture")
+
+
+def building(seed: int = 2) -> WorldSource:
+    """An office building with three floors 3 m apart, a ring corridor around rooms, ramps between floors."""
+    layout = StoreyLayout(width=36.0, depth=28.0, levels=(0.0, 3.0, 6.0), roof=True, slope=math.radians(11.0))
+    builder = WorldBuilder("building", seed)
+    (core,) = build_storeys(builder, layout)
+    _wall_panels(builder, layout, spacing=4.0)
+    for height in layout.levels:
+        _rooms(builder, core, height, 3.0 - SLAB_THICKNESS, rooms=4)
+    return WorldSource("building", builder.to_xml(), {"levels": list(layout.levels), "routes": {
+        "main": {"waypoints": main_route(layout), "loop": True}}})
+
+
+def generated(seed: int) -> WorldSource:
+    """A random stacked world for tests and benchmarks: 2–3 levels, random size, obstacles and textures.
+
+    Different for every seed and identical for the same seed.
+    """
+    rng = np.random.default_rng([seed, 0x5EED])
+    n_levels = int(rng.integers(2, 4))
+    heights = np.cumsum([0.0, *rng.uniform(2.6, 3.4, n_levels - 1)])
+    slope = math.radians(float(rng.uniform(8.0, 11.5)))
+    longest = max(np.diff(heights)) / math.tan(slope)
+    layout = StoreyLayout(
+        width=float(round(rng.uniform(30.0, 46.0), 1)),
+        depth=float(round(longest + 9.0 + rng.uniform(0.0, 8.0), 1)),
+        levels=tuple(float(round(h, 2)) for h in heights),
+        slope=slope, roof=bool(rng.uniform() < 0.5),
+    )
+    name = f"gen:{seed}"
+    builder = WorldBuilder(name, int(rng.integers(2**31)))
+    (core,) = build_storeys(builder, layout)
+    _wall_panels(builder, layout, spacing=float(rng.uniform(3.5, 7.0)))
+    if rng.uniform() < 0.5:
+        _lane_markings(builder, layout)
+    for height in layout.levels:
+        for _ in range(int(rng.integers(4, 10))):
+            sx, sy = rng.uniform(0.3, 1.5, 2)
+            reach = math.hypot(sx, sy)  # any yaw keeps the obstacle inside the core
+            x = rng.uniform(core.x0 + reach, core.x1 - reach)
+            y = rng.uniform(core.y0 + reach, core.y1 - reach)
+            tall = rng.uniform(0.4, 2.4)
+            builder.box([x, y, height + tall / 2], [sx, sy, tall / 2], material=builder.material("pillar"),
+                        yaw=float(rng.uniform(0, math.pi)), kind="obstacle")
+    return WorldSource(name, builder.to_xml(), {"levels": list(layout.levels), "routes": {
+        "main": {"waypoints": main_route(layout), "loop": True}}})

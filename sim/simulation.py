@@ -1,0 +1,330 @@
+"""A world with the robot in it: physics, camera rendering, sensors, wheel odometry and ground truth.
+
+The renderer is created lazily on the first :meth:`Simulation.render` (never in ``__init__``), so a
+simulation can be built in one process and used in a forked worker; close it with :meth:`close` or a
+``with`` block, since a renderer left to the garbage collector prints EGL errors at exit.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+import sim  # noqa: F401  (selects MUJOCO_GL before mujoco is imported)
+import mujoco
+from dm_control import mjcf
+
+from .errors import InvalidParameterError, WorldError
+from .robot import CameraConfig, RobotConfig, build_robot
+from .world import World
+
+__all__ = ["GroundTruth", "ImuReading", "OdometryNoise", "Simulation", "WheelOdometry"]
+
+logger = logging.getLogger(__name__)
+
+Quality = Literal["fast", "high"]
+
+
+@dataclass(frozen=True)
+class OdometryNoise:
+    """Noise of the wheel encoders and the IMU; all zero gives exact readings.
+
+    Attributes:
+        wheel_relative: standard deviation of each wheel's rotation increment, relative to the increment.
+        wheel_radius_bias: systematic relative error of the (left, right) wheel radii assumed by odometry.
+        gyro: standard deviation of the gyro, rad/s.
+        accelerometer: standard deviation of the accelerometer, m/s^2.
+    """
+
+    wheel_relative: float = 0.02
+    wheel_radius_bias: tuple[float, float] = (0.0, 0.0)
+    gyro: float = 0.002
+    accelerometer: float = 0.02
+
+    def __post_init__(self) -> None:
+        for name in ("wheel_relative", "gyro", "accelerometer"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+                raise InvalidParameterError(f"noise.{name}", value, "must be a finite number >= 0")
+        bias = self.wheel_radius_bias
+        if len(bias) != 2 or not all(isinstance(v, (int, float)) and abs(v) < 0.5 for v in bias):
+            raise InvalidParameterError("noise.wheel_radius_bias", bias, "must be two numbers in (-0.5, 0.5)")
+
+
+@dataclass(frozen=True)
+class GroundTruth:
+    """The robot's true state from the simulator (map frame = world frame).
+
+    Attributes:
+        position: x, y, z of the point under the middle of the axle, on the floor, m.
+        yaw: heading about +z, counter-clockwise from +x, rad in (-pi, pi].
+        quaternion: full orientation, w-x-y-z.
+        level: index of the nearest floor level.
+        velocity: linear velocity in the world frame, m/s.
+    """
+
+    position: np.ndarray
+    yaw: float
+    quaternion: np.ndarray
+    level: int
+    velocity: np.ndarray
+
+    @property
+    def pose(self) -> np.ndarray:
+        """(x, y, z, yaw) in m and rad."""
+        return np.array([*self.position, self.yaw])
+
+    @property
+    def pitch(self) -> float:
+        """Nose-up angle, rad."""
+        w, x, y, z = self.quaternion
+        return float(math.asin(max(-1.0, min(1.0, 2 * (x * z - w * y)))))
+
+
+@dataclass(frozen=True)
+class WheelOdometry:
+    """Planar dead reckoning from the wheel encoders (no height: wheels cannot sense it).
+
+    Attributes:
+        x, y: position in the odometry frame (the start pose's frame, aligned with the world at start), m.
+        yaw: heading, rad (unwrapped).
+        distance: path length rolled by the wheels, m.
+        forward_speed: over the last control period, m/s.
+        yaw_rate: over the last control period, rad/s.
+    """
+
+    x: float
+    y: float
+    yaw: float
+    distance: float
+    forward_speed: float
+    yaw_rate: float
+
+
+@dataclass(frozen=True)
+class ImuReading:
+    """Body-frame angular velocity (rad/s) and specific force (m/s^2), with the configured noise."""
+
+    gyro: np.ndarray
+    accelerometer: np.ndarray
+
+
+@dataclass
+class _OdometryState:
+    x: float = 0.0
+    y: float = 0.0
+    yaw: float = 0.0
+    distance: float = 0.0
+    forward_speed: float = 0.0
+    yaw_rate: float = 0.0
+    encoders: np.ndarray = field(default_factory=lambda: np.zeros(2))
+
+
+def _yaw_of(quaternion: np.ndarray) -> float:
+    w, x, y, z = quaternion
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def compose_model(world: World, robot: RobotConfig, camera: CameraConfig, quality: Quality) -> mujoco.MjModel:
+    """Attach the robot to the world, apply the visual profile and compile.
+
+    ``fast``: no shadow map, no multisampling, lights without shadows (a 160×120 frame in a few ms on a
+    CPU). ``high``: 4096 shadow map, 4× multisampling, shadows on.
+    """
+    if quality not in ("fast", "high"):
+        raise InvalidParameterError("quality", quality, "must be 'fast' or 'high'")
+    try:
+        if world.xml is not None:
+            arena = mjcf.from_xml_string(world.xml)
+        else:
+            arena = mjcf.from_path(str(world.path))
+    except Exception as error:  # PyMJCF raises several types for bad files
+        raise WorldError(f"world={world.name!r}: cannot parse MJCF ({error})") from None
+    attachment = arena.attach(build_robot(robot, camera))
+    attachment.add("freejoint")
+    fast = quality == "fast"
+    arena.visual.quality.shadowsize = 0 if fast else 4096
+    arena.visual.quality.offsamples = 0 if fast else 4
+    for light in arena.find_all("light"):
+        light.castshadow = not fast
+    arena.visual.get_children("global").offwidth = max(640, camera.view_width)
+    arena.visual.get_children("global").offheight = max(480, camera.height)
+    try:
+        model = mujoco.MjModel.from_xml_string(arena.to_xml_string(), arena.get_assets())
+    except ValueError as error:
+        raise WorldError(f"world={world.name!r}: MuJoCo cannot compile it ({error})") from None
+    model.vis.map.znear = 0.03 / max(model.stat.extent, 1e-6)  # 3 cm near plane whatever the world's size
+    return model
+
+
+class Simulation:
+    """The robot in a world under MuJoCo physics.
+
+    Args:
+        world: the world to load (see :func:`sim.world.load_world`).
+        start: initial (x, y, z, yaw) in m and rad, z being the floor height (default: the default
+            route's first waypoint, facing the second).
+        robot: physical parameters. camera: camera parameters.
+        noise: sensor noise. seed: seed of the sensor-noise generator.
+        quality: visual profile, ``fast`` (default) or ``high``.
+        control_rate: rate at which commands reach the wheels and odometry integrates, Hz.
+    """
+
+    def __init__(
+        self,
+        world: World,
+        *,
+        start: tuple[float, float, float, float] | None = None,
+        robot: RobotConfig = RobotConfig(),
+        camera: CameraConfig = CameraConfig(),
+        noise: OdometryNoise = OdometryNoise(),
+        seed: int | None = 0,
+        quality: Quality = "fast",
+        control_rate: float = 50.0,
+    ):
+        if not isinstance(control_rate, (int, float)) or not 1.0 <= control_rate <= 1000.0:
+            raise InvalidParameterError("control_rate", control_rate, "must be between 1 and 1000 Hz")
+        self.world = world
+        self.robot = robot
+        self.camera = camera
+        self.noise = noise
+        self.model = compose_model(world, robot, camera, quality)
+        self.data = mujoco.MjData(self.model)
+        self.substeps = max(1, round(1.0 / (control_rate * self.model.opt.timestep)))
+        self._renderer: mujoco.Renderer | None = None
+        self._body = self.model.body("robot/").id
+        self._root = self.model.joint(int(self.model.body_jntadr[self._body]))
+        self._base_site = self.model.site("robot/base").id
+        self._actuators = [self.model.actuator(f"robot/{side}_wheel").id for side in ("left", "right")]
+        self._encoder_address = [self.model.sensor(f"robot/{s}_encoder").adr[0] for s in ("left", "right")]
+        self._gyro_address = self.model.sensor("robot/gyro").adr[0]
+        self._accelerometer_address = self.model.sensor("robot/accelerometer").adr[0]
+        self._cameras = [self.model.camera(f"robot/view{i}").id for i in range(len(camera.view_yaws))]
+        if start is None:
+            route = world.route()
+            x, y, z = route.waypoints[0]
+            start = (float(x), float(y), float(z), route.start_yaw)
+        self.reset(start, seed=seed)
+
+    # state ---------------------------------------------------------------------------------------------
+    def reset(self, start: tuple[float, float, float, float], *, seed: int | None = 0) -> None:
+        """Put the robot at rest at ``start`` = (x, y, z_floor, yaw) and restart the sensors."""
+        values = np.asarray(start, dtype=float)
+        if values.shape != (4,) or not np.all(np.isfinite(values)):
+            raise InvalidParameterError("start", start, "must be four finite numbers (x, y, z, yaw)")
+        x, y, z, yaw = values
+        mujoco.mj_resetData(self.model, self.data)
+        address = self._root.qposadr[0]
+        self.data.qpos[address:address + 7] = [x, y, z + self.robot.wheel_radius + 0.005,
+                                               math.cos(yaw / 2), 0, 0, math.sin(yaw / 2)]
+        mujoco.mj_forward(self.model, self.data)
+        self.rng = np.random.default_rng(seed)
+        self._odometry = _OdometryState(encoders=self._encoders().copy())
+        self._command = np.zeros(2)  # applied (forward speed, yaw rate), slewing towards the target
+        self._target = np.zeros(2)
+
+    def _encoders(self) -> np.ndarray:
+        return self.data.sensordata[self._encoder_address]
+
+    @property
+    def time(self) -> float:
+        """Simulated time since reset, s."""
+        return float(self.data.time)
+
+    def set_command(self, forward_speed: float, yaw_rate: float) -> tuple[float, float]:
+        """Command a forward speed (m/s) and yaw rate (rad/s), clipped to the robot's range.
+
+        The wheels reach the command within the robot's acceleration limits. Returns the clipped command. Raises :class:`InvalidParameterError` on NaN or infinity.
+        """
+        for name, value in (("forward_speed", forward_speed), ("yaw_rate", yaw_rate)):
+            if not math.isfinite(value):
+                raise InvalidParameterError(name, value, "must be finite")
+        v = float(np.clip(forward_speed, -self.robot.max_forward_speed, self.robot.max_forward_speed))
+        w = float(np.clip(yaw_rate, -self.robot.max_yaw_rate, self.robot.max_yaw_rate))
+        self._target = np.array([v, w])
+        return v, w
+
+    def step(self, duration: float) -> None:
+        """Advance physics by ``duration`` seconds (rounded to whole control periods)."""
+        periods = max(1, round(duration / (self.substeps * self.model.opt.timestep)))
+        period = self.substeps * self.model.opt.timestep
+        limits = np.array([self.robot.max_acceleration, self.robot.max_yaw_acceleration]) * period
+        for _ in range(periods):
+            self._command += np.clip(self._target - self._command, -limits, limits)
+            self.data.ctrl[self._actuators] = self.robot.wheel_speeds(*self._command)
+            mujoco.mj_step(self.model, self.data, nstep=self.substeps)
+            self._integrate_odometry(period)
+
+    def _integrate_odometry(self, period: float) -> None:
+        encoders = self._encoders().copy()
+        increments = encoders - self._odometry.encoders
+        self._odometry.encoders = encoders
+        if self.noise.wheel_relative > 0:
+            increments = increments * (1 + self.rng.normal(0.0, self.noise.wheel_relative, 2))
+        radii = self.robot.wheel_radius * (1 + np.asarray(self.noise.wheel_radius_bias))
+        left, right = increments * radii
+        distance = (left + right) / 2
+        turn = (right - left) / self.robot.wheel_separation
+        state = self._odometry
+        heading = state.yaw + turn / 2
+        state.x += distance * math.cos(heading)
+        state.y += distance * math.sin(heading)
+        state.yaw += turn
+        state.distance += abs(distance)
+        state.forward_speed = distance / period
+        state.yaw_rate = turn / period
+
+    # sensors ---------------------------------------------------------------------------------------------
+    def ground_truth(self) -> GroundTruth:
+        """The robot's true pose and level now."""
+        quaternion = self.data.xquat[self._body].copy()
+        position = self.data.site_xpos[self._base_site].copy()
+        velocity = self.data.qvel[self._root.dofadr[0]:self._root.dofadr[0] + 3].copy()
+        return GroundTruth(position, _yaw_of(quaternion), quaternion, int(self.world.level_of(position[2])), velocity)
+
+    def wheel_odometry(self) -> WheelOdometry:
+        """Dead-reckoned planar pose from the wheel encoders, in the start pose's frame."""
+        s = self._odometry
+        return WheelOdometry(s.x, s.y, s.yaw, s.distance, s.forward_speed, s.yaw_rate)
+
+    def imu(self) -> ImuReading:
+        """Gyro and accelerometer readings in the body frame, with noise."""
+        gyro = self.data.sensordata[self._gyro_address:self._gyro_address + 3].copy()
+        accelerometer = self.data.sensordata[self._accelerometer_address:self._accelerometer_address + 3].copy()
+        gyro += self.rng.normal(0.0, self.noise.gyro, 3) if self.noise.gyro else 0.0
+        accelerometer += self.rng.normal(0.0, self.noise.accelerometer, 3) if self.noise.accelerometer else 0.0
+        return ImuReading(gyro, accelerometer)
+
+    def render(self) -> np.ndarray:
+        """The camera image now: (height, width, 3) uint8 RGB, a fresh array."""
+        if self._renderer is None:
+            self._renderer = mujoco.Renderer(self.model, self.camera.height, self.camera.view_width)
+        views = []
+        for camera in self._cameras:
+            self._renderer.update_scene(self.data, camera=camera)
+            views.append(self._renderer.render())
+        return views[0].copy() if len(views) == 1 else np.concatenate(views, axis=1)
+
+    def warnings(self) -> dict[str, int]:
+        """MuJoCo warnings raised so far, by name (empty when none)."""
+        return {
+            mujoco.mjtWarning(i).name: int(self.data.warning[i].number)
+            for i in range(int(mujoco.mjtWarning.mjNWARNING))
+            if self.data.warning[i].number
+        }
+
+    def close(self) -> None:
+        """Release the renderer (its GL context); the simulation can render again afterwards."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def __enter__(self) -> Simulation:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -2,9 +2,37 @@
 gymnasium environments (``NeuroSLAM/Drive-v0``, ``NeuroSLAM/PointNav-v0``).
 
 Importing ``sim`` selects headless rendering (``MUJOCO_GL=egl``) unless the user chose a backend already;
-it must therefore be imported before anything imports ``mujoco``.
+import it before anything imports ``mujoco``.
+
+Example::
+
+    import sim
+    with sim.ScriptedDrive("carpark", laps=1) as drive:
+        for frame in drive:
+            frame.image, frame.ground_truth.pose, frame.odometry
 """
 
 import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+
+from gymnasium.envs.registration import register, registry  # noqa: E402
+
+from .driver import DriveStuckError, Frame, PurePursuit, ScriptedDrive  # noqa: E402
+from .errors import InvalidParameterError, RouteError, SimError, WorldError  # noqa: E402
+from .robot import CameraConfig, RobotConfig  # noqa: E402
+from .simulation import GroundTruth, ImuReading, OdometryNoise, Simulation, WheelOdometry  # noqa: E402
+from .world import Route, World, builtin_worlds, load_world, parse_routes  # noqa: E402
+
+__all__ = [
+    "CameraConfig", "DriveStuckError", "Frame", "GroundTruth", "ImuReading", "InvalidParameterError",
+    "OdometryNoise", "PurePursuit", "RobotConfig", "Route", "RouteError", "ScriptedDrive", "SimError",
+    "Simulation", "WheelOdometry", "World", "WorldError", "builtin_worlds", "load_world", "parse_routes",
+]
+
+for _id, _entry_point, _steps in (
+    ("NeuroSLAM/Drive-v0", "sim.envs:DriveEnv", 1000),
+    ("NeuroSLAM/PointNav-v0", "sim.envs:PointNavEnv", 1500),
+):
+    if _id not in registry:
+        register(id=_id, entry_point=_entry_point, max_episode_steps=_steps)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import logging
 import math
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -140,6 +141,9 @@ class ScriptedDrive:
         camera, robot, noise, quality: see :class:`~sim.simulation.Simulation`.
         render: False skips the camera (``frame.image`` is then an empty array), for physics-only runs.
         stuck_timeout: simulated seconds without 0.5 m of progress before :class:`DriveStuckError`.
+
+    Attributes:
+        timings: wall-clock seconds spent in physics (with control) and in rendering so far.
     """
 
     def __init__(
@@ -176,6 +180,7 @@ class ScriptedDrive:
         x, y, z = self.route.waypoints[0]
         self.simulation = Simulation(self.world, start=(x, y, z, self.route.start_yaw), robot=robot, camera=camera,
                                      noise=noise, seed=seed, quality=quality)
+        self.timings = {"physics": 0.0, "render": 0.0}  # wall-clock seconds spent so far
 
     @property
     def total_distance(self) -> float:
@@ -184,7 +189,9 @@ class ScriptedDrive:
 
     def _frame(self, index: int) -> Frame:
         simulation = self.simulation
+        started = time.perf_counter()
         image = simulation.render() if self.render else np.zeros((0, 0, 3), np.uint8)
+        self.timings["render"] += time.perf_counter() - started
         lap = int(self.controller.progress // self.route.length) if self.route.loop else 0
         return Frame(index, simulation.time, image, simulation.ground_truth(), simulation.wheel_odometry(),
                      simulation.imu(), lap, self.controller.progress)
@@ -199,10 +206,12 @@ class ScriptedDrive:
         try:
             yield self._frame(index)
             while self.max_frames is None or index + 1 < self.max_frames:
+                started = time.perf_counter()
                 for _ in range(periods_per_frame):
                     truth = simulation.ground_truth()
                     simulation.set_command(*self.controller.command(truth.position, truth.yaw))
                     simulation.step(control_period)
+                self.timings["physics"] += time.perf_counter() - started
                 index += 1
                 yield self._frame(index)
                 progress = self.controller.progress

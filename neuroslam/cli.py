@@ -1,0 +1,170 @@
+"""The ``neuroslam`` command line.
+
+Commands:
+    drive   drive a route in a simulated world and write its trajectories (SLAM joins in a later release)
+    worlds  list the built-in worlds with their levels and routes
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["main"]
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} must be at least 1")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be a positive number")
+    return value
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="neuroslam",
+        description="NeuroSLAM, brain-inspired 4-DoF SLAM, and its multi-level MuJoCo testbed.",
+    )
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    drive = commands.add_parser(
+        "drive", help="drive a route in a simulated world and record its trajectories",
+        description="Drive the robot along a route under MuJoCo physics with its camera rendering, and write "
+        "groundtruth.tum, odometry.tum (wheel odometry) and summary.json into the output folder.",
+    )
+    drive.add_argument("world", nargs="?", default="carpark",
+                       help="built-in world name, gen:SEED for a generated world, or an MJCF file (default: carpark)")
+    drive.add_argument("--route", help="route name, or a routes JSON file for an MJCF world (default: the first route)")
+    drive.add_argument("--laps", type=_positive_int, default=2, help="laps to drive (default: 2)")
+    drive.add_argument("--speed", type=_positive_float, default=1.0, help="cruise speed in m/s (default: 1.0)")
+    drive.add_argument("--camera-rate", type=_positive_float, default=10.0, help="frames per second (default: 10)")
+    drive.add_argument("--width", type=_positive_int, default=160, help="image width in pixels (default: 160)")
+    drive.add_argument("--height", type=_positive_int, default=120, help="image height in pixels (default: 120)")
+    drive.add_argument("--panoramic", action="store_true", help="stitch four cameras into a 360-degree strip")
+    drive.add_argument("--seed", type=int, default=0, help="seed of the sensor noise (default: 0)")
+    drive.add_argument("--quality", choices=["fast", "high"], default="fast", help="visual profile (default: fast)")
+    drive.add_argument("--max-frames", type=_positive_int, help="stop after this many frames")
+    drive.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
+
+    commands.add_parser("worlds", help="list the built-in worlds with their levels and routes",
+                        description="List the built-in worlds with their floor levels and routes.")
+    return parser
+
+
+def _drive(args: argparse.Namespace) -> int:
+    import sim  # the simulator is only needed here; importing it selects headless rendering
+    from tqdm import tqdm
+
+    from .tum import write_tum, yaw_quaternion
+
+    route_name, routes_file = args.route, None
+    if args.route and args.route.endswith(".json"):
+        route_name, routes_file = None, args.route
+    world = sim.load_world(args.world, routes=routes_file)
+    camera = sim.CameraConfig(width=args.width, height=args.height, panoramic=args.panoramic)
+    drive = sim.ScriptedDrive(world, route=route_name, laps=args.laps, speed=args.speed,
+                              camera_rate=args.camera_rate, max_frames=args.max_frames, seed=args.seed,
+                              camera=camera, quality=args.quality)
+    out = args.out or Path("runs") / f"drive-{world.name.replace(':', '_')}-{time.strftime('%Y%m%d-%H%M%S')}"
+    out.mkdir(parents=True, exist_ok=True)
+    times, truths, odometry = [], [], []
+    started = time.perf_counter()
+    with tqdm(total=round(drive.total_distance, 1), unit="m", desc=f"{world.name}/{drive.route.name}") as bar:
+        for frame in drive:
+            times.append(frame.time)
+            truths.append(frame.ground_truth)
+            odometry.append(frame.odometry)
+            bar.update(round(min(frame.progress, drive.total_distance) - bar.n, 1))
+    elapsed = time.perf_counter() - started
+    times = np.array(times)
+    positions = np.array([t.position for t in truths])
+    write_tum(out / "groundtruth.tum", times, positions, np.array([t.quaternion for t in truths]))
+    write_tum(out / "odometry.tum", times, np.array([[o.x, o.y, 0.0] for o in odometry]),
+              yaw_quaternion(np.array([o.yaw for o in odometry])))
+    frames = len(times)
+    summary = {
+        "world": world.name,
+        "route": drive.route.name,
+        "frames": frames,
+        "laps": int(drive.controller.progress // drive.route.length) if drive.route.loop else 1,
+        "distance_m": float(np.sum(np.linalg.norm(np.diff(positions, axis=0), axis=1))),
+        "levels": list(world.levels),
+        "levels_visited": sorted({int(t.level) for t in truths}),
+        "height_range_m": [float(positions[:, 2].min()), float(positions[:, 2].max())],
+        "ms_per_frame": {
+            "physics": 1000 * drive.timings["physics"] / frames,
+            "render": 1000 * drive.timings["render"] / frames,
+            "total": 1000 * elapsed / frames,
+        },
+    }
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    rows = [
+        ("world / route", f"{world.name} / {drive.route.name}"),
+        ("frames", f"{frames} ({times[-1]:.1f} s simulated)"),
+        ("laps", str(summary["laps"])),
+        ("distance", f"{summary['distance_m']:.1f} m"),
+        ("levels visited", f"{summary['levels_visited']} of {list(range(len(world.levels)))}"),
+        ("height range", f"{summary['height_range_m'][0]:.2f} .. {summary['height_range_m'][1]:.2f} m"),
+        ("ms per frame", "physics {physics:.2f}, render {render:.2f}, total {total:.2f}".format(**summary["ms_per_frame"])),
+        ("output", str(out)),
+    ]
+    width = max(len(name) for name, _ in rows)
+    for name, value in rows:
+        print(f"{name:<{width}}  {value}")
+    return 0
+
+
+def _worlds(_: argparse.Namespace) -> int:
+    import sim
+
+    for name in sim.builtin_worlds():
+        world = sim.load_world(name)
+        levels = ", ".join(f"{h:g}" for h in world.levels)
+        routes = ", ".join(f"{r.name} ({r.length:.0f} m)" for r in world.routes.values())
+        print(f"{name:<10} levels at {levels} m; routes: {routes}")
+    print("gen:SEED   a generated world for any integer SEED (2-3 levels)")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``neuroslam`` console script; returns the exit code."""
+    args = _parser().parse_args(argv)
+    handlers = {"drive": _drive, "worlds": _worlds}
+    try:
+        return handlers[args.command](args)
+    except KeyboardInterrupt:
+        print("neuroslam: interrupted", file=sys.stderr)
+        return 130
+    except (ValueError, OSError) as error:  # the library's typed errors derive from ValueError
+        print(f"neuroslam {args.command}: error: {error}", file=sys.stderr)
+        return 2
+    except Exception as error:
+        import sim
+
+        if isinstance(error, sim.SimError):
+            print(f"neuroslam {args.command}: error: {error}", file=sys.stderr)
+            return 2
+        raise
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -119,8 +119,9 @@ def build_robot(robot: RobotConfig = RobotConfig(), camera: CameraConfig = Camer
              conaffinity=0, rgba=[0.2, 0.2, 0.2, 1])
     # caster: frictionless sphere whose bottom touches the floor when the base is level
     caster_radius = 0.05
-    body.add("geom", name="caster", type="sphere", size=[caster_radius], pos=[-0.3, 0, caster_radius - r],
-             condim=1, mass=0.2, rgba=[0.2, 0.2, 0.2, 1])
+    caster = body.add("body", name="caster", pos=[-0.3, 0, caster_radius - r])
+    caster.add("joint", name="caster", type="ball", damping=0.0005)
+    caster.add("geom", name="caster", type="sphere", size=[caster_radius], mass=0.2, rgba=[0.2, 0.2, 0.2, 1])
     body.add("site", name="imu", pos=[0, 0, 0.05])
     body.add("site", name="base", pos=[0, 0, -r])
     for i, yaw in enumerate(camera.view_yaws):
@@ -130,7 +131,7 @@ def build_robot(robot: RobotConfig = RobotConfig(), camera: CameraConfig = Camer
                  xyaxes=[cy, -cx, 0, 0, 0, 1], fovy=math.degrees(camera.vertical_fov))
     for side, y in (("left", robot.wheel_separation / 2), ("right", -robot.wheel_separation / 2)):
         wheel = body.add("body", name=f"{side}_wheel", pos=[0, y, 0])
-        wheel.add("joint", name=f"{side}_wheel", type="hinge", axis=[0, 1, 0], damping=0.01)
+        wheel.add("joint", name=f"{side}_wheel", type="hinge", axis=[0, 1, 0], damping=0.01, armature=0.01)
         wheel.add("geom", name=f"{side}_wheel", type="sphere", size=[r], mass=0.5, friction=[1.2, 0.01, 0.001],
                   rgba=[0.1, 0.1, 0.1, 1])
         limit = robot.max_forward_speed / r + robot.max_yaw_rate * robot.wheel_separation / (2 * r)

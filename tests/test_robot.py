@@ -1,0 +1,101 @@
+"""The robot really drives: commands move it with the right signs, walls stop it, sensors are honest."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import sim
+from sim.simulation import OdometryNoise, Simulation
+
+FLAT = """<mujoco><worldbody><light pos="0 0 5" dir="0 0 -1" directional="true"/>
+  <geom name="ground" type="plane" size="30 30 0.1" rgba=".5 .5 .5 1"/>
+  <geom name="wall" type="box" size="0.1 10 1" pos="6 0 1"/></worldbody></mujoco>"""
+
+
+@pytest.fixture
+def flat_world(tmp_path):
+    (tmp_path / "flat.xml").write_text(FLAT)
+    (tmp_path / "flat.routes.json").write_text(
+        json.dumps({"routes": {"line": {"waypoints": [[0, 0, 0], [5, 0, 0]], "loop": False}}}))
+    return sim.load_world(tmp_path / "flat.xml")
+
+
+def test_forward_command_moves_forward_at_the_commanded_speed(flat_world):
+    with Simulation(flat_world, noise=OdometryNoise(0, (0, 0), 0, 0)) as simulation:
+        simulation.set_command(1.0, 0.0)
+        simulation.step(3.0)
+        truth = simulation.ground_truth()
+        # 1.5 m/s^2 acceleration limit: 2/3 s to reach 1 m/s, so 3 s cover 3 - 1 / (2 * 1.5) m,
+        # less a little lag of the wheels' velocity servos
+        assert truth.position[0] == pytest.approx(3.0 - 1 / 3, abs=0.05)
+        assert abs(truth.position[1]) < 0.05
+        assert truth.velocity[0] == pytest.approx(1.0, abs=0.05)
+        odometry = simulation.wheel_odometry()
+        assert odometry.x == pytest.approx(truth.position[0], rel=0.02)
+        assert odometry.forward_speed == pytest.approx(1.0, abs=0.05)
+
+
+def test_positive_yaw_rate_turns_counter_clockwise(flat_world):
+    with Simulation(flat_world, noise=OdometryNoise(0, (0, 0), 0, 0)) as simulation:
+        simulation.set_command(0.0, 1.0)
+        simulation.step(1.0)
+        truth = simulation.ground_truth()
+        assert 0.7 < truth.yaw < 1.0  # 1 rad/s for 1 s, less the acceleration ramp
+        assert simulation.wheel_odometry().yaw == pytest.approx(truth.yaw, abs=0.05)
+        assert simulation.imu().gyro[2] == pytest.approx(1.0, abs=0.05)
+
+
+def test_walls_stop_the_robot(flat_world):
+    with Simulation(flat_world) as simulation:
+        simulation.set_command(2.0, 0.0)
+        simulation.step(8.0)
+        x = simulation.ground_truth().position[0]
+        # the chassis front is 0.15 m ahead of the axle and the wall face at 5.9 m; soft contacts may
+        # penetrate a few millimetres under the full drive force
+        assert x < 6.0 - 0.1 - 0.15 + 0.005
+        assert x > 5.0
+
+
+def test_commands_are_clipped_and_nan_refused(flat_world):
+    with Simulation(flat_world) as simulation:
+        assert simulation.set_command(10.0, -10.0) == (2.0, -2.0)
+        with pytest.raises(sim.InvalidParameterError, match="forward_speed"):
+            simulation.set_command(float("nan"), 0.0)
+
+
+def test_wheel_odometry_noise_is_seeded(flat_world):
+    def run(seed):
+        with Simulation(flat_world, seed=seed, noise=OdometryNoise(wheel_relative=0.05)) as simulation:
+            simulation.set_command(1.0, 0.3)
+            simulation.step(2.0)
+            return simulation.wheel_odometry()
+    assert run(1) == run(1)
+    assert run(1) != run(2)
+
+
+def test_accelerometer_reads_gravity_at_rest(flat_world):
+    with Simulation(flat_world, noise=OdometryNoise(0, (0, 0), 0, 0)) as simulation:
+        simulation.step(0.5)
+        np.testing.assert_allclose(simulation.imu().accelerometer, [0, 0, 9.81], atol=0.05)
+
+
+@pytest.mark.parametrize("kwargs, field", [
+    ({"camera": dict(width=0)}, "camera.width"),
+    ({"camera": dict(horizontal_fov=4.0)}, "camera.horizontal_fov"),
+    ({"camera": dict(width=150, panoramic=True)}, "camera.width"),
+    ({"robot": dict(wheel_radius=-1)}, "robot.wheel_radius"),
+    ({"noise": dict(wheel_relative=-0.1)}, "noise.wheel_relative"),
+])
+def test_bad_parameters_name_the_field(kwargs, field):
+    (kind, values), = kwargs.items()
+    factory = {"camera": sim.CameraConfig, "robot": sim.RobotConfig, "noise": sim.OdometryNoise}[kind]
+    with pytest.raises(sim.InvalidParameterError) as error:
+        factory(**values)
+    assert error.value.field == field
+
+
+def test_camera_field_of_view():
+    camera = sim.CameraConfig(width=160, height=120, horizontal_fov=math.radians(80))
+    assert math.degrees(camera.vertical_fov) == pytest.approx(2 * math.degrees(math.atan(math.tan(math.radians(40)) * 0.75)))

@@ -1,0 +1,129 @@
+"""Every world compiles and simulates a second without MuJoCo warnings (Menagerie-style), the shipped
+files match their builders, and the generator is deterministic per seed."""
+
+import json
+import math
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+import sim
+from sim.arenas import BUILTIN_BUILDERS, generated, routes_json, subtract_rectangles, Rect
+from sim.simulation import Simulation
+from sim.world import _worlds_directory
+
+from conftest import BUILTIN_WORLDS, GENERATED_WORLDS
+
+
+@pytest.mark.parametrize("name", BUILTIN_WORLDS + GENERATED_WORLDS + ["gen:11", "gen:12"])
+def test_world_compiles_and_simulates_one_second_without_warnings(name):
+    world = sim.load_world(name)
+    with Simulation(world) as simulation:
+        simulation.set_command(0.5, 0.2)
+        simulation.step(1.0)
+        assert simulation.warnings() == {}
+        assert simulation.time == pytest.approx(1.0)
+        truth = simulation.ground_truth()
+        assert np.all(np.isfinite(truth.pose))
+        assert abs(truth.position[2] - world.levels[0]) < 0.05  # resting on the ground floor
+
+
+def test_builtin_worlds_are_listed():
+    assert sim.builtin_worlds() == sorted(BUILTIN_WORLDS)
+
+
+@pytest.mark.parametrize("name", BUILTIN_WORLDS)
+def test_shipped_files_match_their_builders(name):
+    source = BUILTIN_BUILDERS[name]()
+    directory = _worlds_directory()
+    assert (directory / f"{name}.xml").read_text() == source.xml, "run: python -m sim.arenas worlds"
+    assert (directory / f"{name}.routes.json").read_text() == routes_json(source)
+
+
+def _ramp_slopes(xml: str) -> list[float]:
+    slopes = []
+    for geom in ET.fromstring(xml).iter("geom"):
+        if geom.get("name", "").startswith("ramp"):
+            w, x, y, z = map(float, geom.get("quat").split())
+            # angle between the ramp's surface normal (local z) and the world's z
+            normal_z = 1 - 2 * (x * x + y * y)
+            slopes.append(math.degrees(math.acos(max(-1.0, min(1.0, normal_z)))))
+    return slopes
+
+
+@pytest.mark.parametrize("name", BUILTIN_WORLDS + GENERATED_WORLDS)
+def test_worlds_have_several_levels_joined_by_gentle_ramps(name):
+    world = sim.load_world(name)
+    xml = world.xml if world.xml is not None else world.path.read_text()
+    slopes = _ramp_slopes(xml)
+    assert len(world.levels) >= 2
+    assert len(slopes) >= len(world.levels) - 1
+    assert all(0 < s <= 12.0 for s in slopes), slopes
+    # every route starts on the ground floor and its waypoints touch every level
+    for route in world.routes.values():
+        assert route.waypoints[0, 2] == world.levels[0]
+        assert set(np.unique(world.level_of(route.waypoints[:, 2]))) == set(range(len(world.levels)))
+
+
+@pytest.mark.parametrize("name", BUILTIN_WORLDS)
+def test_surfaces_have_their_own_textures(name):
+    root = ET.fromstring(sim.load_world(name).path.read_text())
+    textures = [t for t in root.iter("texture") if t.get("type") == "2d"]
+    signatures = {(t.get("builtin"), t.get("rgb1"), t.get("mark")) for t in textures}
+    assert len(textures) >= 40
+    assert len(signatures) >= 0.9 * len(textures)  # nearly every surface looks different
+
+
+def test_generator_is_deterministic_and_differs_between_seeds():
+    assert generated(5).xml == generated(5).xml
+    assert generated(5).routes == generated(5).routes
+    assert generated(5).xml != generated(6).xml
+    layouts = {json.dumps(generated(s).routes["levels"]) for s in range(8)}
+    assert len(layouts) >= 6
+
+
+def test_subtract_rectangles_covers_exactly_the_area_outside_the_holes():
+    outer = Rect(-10, 10, -5, 5)
+    holes = [Rect(6, 10, -3, 3), Rect(-2, 0, -1, 4)]
+    pieces = subtract_rectangles(outer, holes)
+    area = sum((r.x1 - r.x0) * (r.y1 - r.y0) for r in pieces)
+    assert area == pytest.approx(20 * 10 - 4 * 6 - 2 * 5)
+    assert not any(p.overlaps(h) for p in pieces for h in holes)
+    assert not any(a.overlaps(b) for i, a in enumerate(pieces) for b in pieces[i + 1:])
+
+
+@pytest.mark.parametrize("bad, message", [
+    ("nowhere", "not a built-in world"),
+    ("gen:abc", "integer seed"),
+    ("gen:-3", "non-negative"),
+    ("/no/such/world.xml", "does not exist"),
+])
+def test_unknown_worlds_are_refused_with_the_name(bad, message):
+    with pytest.raises(sim.WorldError, match=message) as error:
+        sim.load_world(bad)
+    assert repr(bad) in str(error.value)
+
+
+def test_user_world_gets_the_robot_added(tmp_path):
+    xml = """<mujoco><worldbody><light pos="0 0 5" dir="0 0 -1" directional="true"/>
+      <geom name="ground" type="plane" size="20 20 0.1" rgba=".5 .5 .5 1"/>
+      <geom name="deck" type="box" size="5 2 0.1" pos="0 10 2.9"/>
+      <geom name="ramp" type="box" size="7.5 2 0.1" pos="-12 10 1.4" euler="0 -0.2 0"/></worldbody></mujoco>"""
+    (tmp_path / "mine.xml").write_text(xml)
+    (tmp_path / "mine.routes.json").write_text(json.dumps(
+        {"routes": {"loop": {"waypoints": [[0, 0, 0], [5, 0, 0], [5, 5, 0]], "loop": True}}}))
+    world = sim.load_world(tmp_path / "mine.xml")
+    assert world.levels == (0.0,)
+    with Simulation(world) as simulation:
+        simulation.step(0.5)
+        assert simulation.warnings() == {}
+        assert simulation.model.body("robot/") is not None
+        assert simulation.render().shape == (120, 160, 3)
+
+
+def test_mjcf_that_does_not_compile_is_reported(tmp_path):
+    (tmp_path / "broken.xml").write_text("<mujoco><worldbody><geom type='box' size='1'/></worldbody></mujoco>")
+    (tmp_path / "broken.routes.json").write_text('{"routes": {"a": {"waypoints": [[0,0,0],[1,0,0]]}}}')
+    with pytest.raises(sim.WorldError, match="broken"):
+        Simulation(sim.load_world(tmp_path / "broken.xml"))

@@ -154,16 +154,17 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("neuroslam: interrupted", file=sys.stderr)
         return 130
-    except (ValueError, OSError) as error:  # the library's typed errors derive from ValueError
+    except Exception as error:
+        if not _is_user_error(error):
+            raise
         print(f"neuroslam {args.command}: error: {error}", file=sys.stderr)
         return 2
-    except Exception as error:
-        import sim
 
-        if isinstance(error, sim.SimError):
-            print(f"neuroslam {args.command}: error: {error}", file=sys.stderr)
-            return 2
-        raise
+
+def _is_user_error(error: Exception) -> bool:
+    """True for errors caused by the user's input (typed library errors, unreadable files), not bugs."""
+    simulator = sys.modules.get("sim")
+    return isinstance(error, OSError) or (simulator is not None and isinstance(error, simulator.SimError))
 
 
 if __name__ == "__main__":

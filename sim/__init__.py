@@ -13,8 +13,18 @@ Example::
 """
 
 import os
+import sys
+import warnings
 
+# MuJoCo picks its GL backend once, when it is imported
+_MUJOCO_IMPORTED_WITHOUT_BACKEND = "mujoco" in sys.modules and "MUJOCO_GL" not in os.environ
 os.environ.setdefault("MUJOCO_GL", "egl")
+if _MUJOCO_IMPORTED_WITHOUT_BACKEND:
+    warnings.warn(
+        "mujoco was imported before sim with MUJOCO_GL unset, so it chose its default GL backend; headless "
+        "rendering will fail without a display. Import sim first or set MUJOCO_GL=egl.",
+        RuntimeWarning, stacklevel=2,
+    )
 
 from gymnasium.envs.registration import register, registry  # noqa: E402
 

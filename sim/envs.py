@@ -31,11 +31,13 @@ class RouteGraph:
     """The drivable network of a world: every route densely sampled, nearby samples joined.
 
     Nodes are points every ``spacing`` metres along all routes; edges join consecutive samples and any
-    two samples closer than ``join`` metres (where routes overlap or cross). Ramps are part of the routes,
+    two samples closer than ``join`` metres (where routes overlap or cross, or lanes run side by side;
+    the builders keep lanes on either side of a wall at least 2.8 m apart). Ramps are part of the routes,
     so shortest paths between levels go over them. Distances are metres, 3-D.
     """
 
-    def __init__(self, world: World, *, spacing: float = 0.5, join: float = 0.8):
+    def __init__(self, world: World, *, spacing: float = 0.5, join: float = 1.5):
+        self.join = join
         points, rows, columns = [], [], []
         offset = 0
         for route in world.routes.values():
@@ -66,14 +68,18 @@ class RouteGraph:
         """Index of the node nearest to ``position`` (3-D)."""
         return int(self.tree.query(position)[1])
 
-    def distance_to(self, field: np.ndarray, position: np.ndarray, *, candidates: int = 12) -> float:
+    def distance_to(self, field: np.ndarray, position: np.ndarray, *, candidates: int = 16) -> float:
         """Drivable distance from ``position`` given a field of node distances (from :meth:`distances_from`).
 
-        The robot joins the network at whichever of the ``candidates`` nearest nodes gives the shortest
-        total (straight line to the node, then the network).
+        The robot joins the network at whichever node within ``join`` metres on its own level (less than
+        0.5 m higher or lower) gives the shortest total: straight line to the node, then the network.
+        A robot farther from the network joins it at the nearest node.
         """
         gaps, nodes = self.tree.query(position, k=min(candidates, len(self.points)))
-        return float(np.min(gaps + field[nodes]))
+        usable = (gaps <= self.join) & (np.abs(self.points[nodes, 2] - position[2]) < 0.5)
+        if not usable.any():
+            return float(gaps[0] + field[nodes[0]])
+        return float(np.min(gaps[usable] + field[nodes[usable]]))
 
 
 class DriveEnv(gym.Env):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -18,7 +19,7 @@ import sim  # noqa: F401  (selects MUJOCO_GL before mujoco is imported)
 import mujoco
 from dm_control import mjcf
 
-from .errors import InvalidParameterError, WorldError
+from .errors import InvalidParameterError, SimError, WorldError
 from .robot import CameraConfig, RobotConfig, build_robot
 from .world import World
 
@@ -308,7 +309,13 @@ class Simulation:
     def render(self) -> np.ndarray:
         """The camera image now: (height, width, 3) uint8 RGB, a fresh array."""
         if self._renderer is None:
-            self._renderer = mujoco.Renderer(self.model, self.camera.height, self.camera.view_width)
+            try:
+                self._renderer = mujoco.Renderer(self.model, self.camera.height, self.camera.view_width)
+            except mujoco.FatalError as error:
+                raise SimError(
+                    f"cannot create an offscreen renderer with MUJOCO_GL={os.environ.get('MUJOCO_GL')!r} ({error}); "
+                    "on a machine without a display, set MUJOCO_GL=egl (or import sim before mujoco)"
+                ) from None
         views = []
         for camera in self._cameras:
             self._renderer.update_scene(self.data, camera=camera)

@@ -1,0 +1,58 @@
+"""The command line: help, listing worlds, a short drive with its outputs, one-line errors."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from neuroslam.cli import main
+from neuroslam.tum import read_tum
+
+
+def run(*args):
+    return subprocess.run([sys.executable, "-m", "neuroslam.cli", *args], capture_output=True, text=True, timeout=300)
+
+
+def test_help_explains_every_command():
+    result = run("--help")
+    assert result.returncode == 0
+    assert "drive" in result.stdout and "worlds" in result.stdout
+    drive_help = run("drive", "--help").stdout
+    for option in ("--route", "--laps", "--seed", "--quality", "--max-frames", "--out", "--panoramic"):
+        assert option in drive_help
+
+
+def test_worlds_lists_levels_and_routes(capsys):
+    assert main(["worlds"]) == 0
+    out = capsys.readouterr().out
+    assert "carpark" in out and "levels at 0, 3 m" in out and "main (" in out and "gen:SEED" in out
+
+
+def test_short_drive_writes_trajectories_and_summary(tmp_path, capsys):
+    assert main(["drive", "gen:2", "--max-frames", "30", "--out", str(tmp_path), "--seed", "1"]) == 0
+    times, positions, quaternions = read_tum(tmp_path / "groundtruth.tum")
+    assert len(times) == 30 and times[1] == pytest.approx(0.1)
+    np.testing.assert_allclose(np.linalg.norm(quaternions, axis=1), 1.0, atol=1e-6)
+    odometry_times, odometry_positions, _ = read_tum(tmp_path / "odometry.tum")
+    np.testing.assert_array_equal(odometry_times, times)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["frames"] == 30 and summary["world"] == "gen:2"
+    assert summary["distance_m"] > 0.5
+    assert set(summary["ms_per_frame"]) == {"physics", "render", "total"}
+    assert "levels visited" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("args, text", [
+    (["drive", "atlantis"], "not a built-in world"),
+    (["drive", "gen:x"], "integer seed"),
+    (["drive", "carpark", "--route", "nope"], "route='nope'"),
+    (["drive", "carpark", "--laps", "0"], "must be at least 1"),
+])
+def test_bad_input_gives_one_line_and_exit_code_2(args, text):
+    result = run(*args)
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert "Traceback" not in result.stderr
+    assert text in lines[-1]

@@ -105,7 +105,7 @@ def _drive(args: argparse.Namespace) -> int:
         "world": world.name,
         "route": drive.route.name,
         "frames": frames,
-        "laps": int(drive.controller.progress // drive.route.length) if drive.route.loop else 1,
+        "laps": drive.laps_completed,
         "distance_m": float(np.sum(np.linalg.norm(np.diff(positions, axis=0), axis=1))),
         "levels": list(world.levels),
         "levels_visited": sorted({int(t.level) for t in truths}),

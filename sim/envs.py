@@ -103,8 +103,8 @@ class DriveEnv(gym.Env):
     None: free driving returns 0.0 every step (use a wrapper for a task of your own).
 
     ## Starting State
-    At rest on a point of the route drawn uniformly along it from the ``reset`` seed, facing along the
-    route. ``options={"start": [x, y, z, yaw]}`` sets it explicitly (z is the floor height there).
+    At rest on a floor point of the route (not on a ramp) drawn uniformly along it from the ``reset``
+    seed, facing along the route. ``options={"start": [x, y, z, yaw]}`` sets it explicitly (z is the floor height there).
 
     ## Episode End
     ``terminated`` when the robot tips over (roll or pitch beyond 45 degrees); ``truncated`` by the time
@@ -214,7 +214,10 @@ class DriveEnv(gym.Env):
         return 0.0, False
 
     def _sample_start(self) -> np.ndarray:
-        distance = float(self.np_random.uniform(0.0, self.route.length))
+        distances = np.arange(0.0, self.route.length, 0.25)
+        heights = self.route.point_at(distances)[:, 2]
+        on_floor = np.abs(heights - np.asarray(self.world.levels)[self.world.level_of(heights)]) < 0.05
+        distance = float(self.np_random.choice(distances[on_floor]))  # never on a ramp
         point = self.route.point_at(distance)
         ahead = self.route.point_at(distance + 0.5)
         return np.array([*point, math.atan2(ahead[1] - point[1], ahead[0] - point[0])])

@@ -13,10 +13,8 @@ import os
 from dataclasses import dataclass, field
 from typing import Literal
 
+import mujoco  # the package's __init__ has chosen MUJOCO_GL before this runs
 import numpy as np
-
-import sim  # noqa: F401  (selects MUJOCO_GL before mujoco is imported)
-import mujoco
 from dm_control import mjcf
 
 from .errors import InvalidParameterError, SimError, WorldError
@@ -165,6 +163,7 @@ def compose_model(world: World, robot: RobotConfig, camera: CameraConfig, qualit
     except ValueError as error:
         raise WorldError(f"world={world.name!r}: MuJoCo cannot compile it ({error})") from None
     model.vis.map.znear = 0.03 / max(model.stat.extent, 1e-6)  # 3 cm near plane whatever the world's size
+    logger.info("compiled world %r with the robot: %d geoms, %s profile", world.name, model.ngeom, quality)
     return model
 
 

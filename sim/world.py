@@ -107,7 +107,10 @@ class World:
 
 
 def _worlds_directory() -> Path:
-    return Path(str(resources.files("sim.worlds")))
+    try:
+        return Path(str(resources.files("sim.worlds")))
+    except ModuleNotFoundError:  # a source checkout on sys.path ahead of (or without) the installed package
+        return Path(__file__).resolve().parent.parent / "worlds"
 
 
 def builtin_worlds() -> list[str]:

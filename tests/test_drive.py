@@ -35,7 +35,7 @@ def test_scripted_drive_completes_a_lap_on_every_level_without_leaving_the_floor
         w, x, y, z = truth.quaternion
         tilt.append(math.degrees(math.acos(min(1.0, 1 - 2 * (x * x + y * y)))))
     # a whole lap: the progress covers the route and the robot is back where it started
-    assert frame.progress >= route.length - 0.3
+    assert frame.lap == 1 and frame.progress >= route.length - 0.3
     assert np.linalg.norm(frame.ground_truth.position - route.waypoints[0]) < 1.0
     assert drive.simulation.warnings() == {}
     levels = drive.world.levels
@@ -94,3 +94,10 @@ def test_stuck_robot_is_reported(tmp_path):
     with pytest.raises(sim.DriveStuckError, match="stuck"):
         for _ in drive:
             pass
+
+
+def test_a_drive_is_iterated_once():
+    drive = sim.ScriptedDrive("gen:1", max_frames=2, render=False)
+    assert len(list(drive)) == 2
+    with pytest.raises(sim.SimError, match="only once"):
+        list(drive)

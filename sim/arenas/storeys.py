@@ -2,9 +2,9 @@
 
 Every world here shares one skeleton (:func:`build_storeys`): a rectangular footprint, floors stacked at
 the given heights, ramps alternating between the east side (rising +y) and the west side (rising -y),
-and a ring lane on every level. The main route drives the ring of the ground level, climbs every ramp
-with a ring on each level, comes back down and returns to its start, so the lower levels are revisited
-after the upper ones, as in the NeuroSLAM paper's datasets. Flavours add what makes each place look like
+and a ring lane on every level. The main route climbs every ramp with a ring on each level, comes back
+down, drives the ring of the ground level and returns to its start, so lower-level places are revisited
+after the upper ones (on the way down and on the next lap), as in the NeuroSLAM paper's datasets. Flavours add what makes each place look like
 itself: pillars, parked cars and lane markings; rooms and doorways; random obstacles.
 """
 
@@ -87,12 +87,17 @@ def _lanes(layout: StoreyLayout) -> dict[str, float]:
 
 
 def main_route(layout: StoreyLayout) -> list[list[float]]:
-    """Waypoints of the main route: up through every level with a ring on each, then all the way down."""
+    """Waypoints of the main route: up through every level with a ring on each, then all the way down
+    and a ring on the ground level back to the start.
+
+    The route starts at the south-east corner of the ground ring heading east to the first ramp, and
+    arrives there heading south, so laps join without turning back (every turn is at most 90 degrees).
+    """
     lane = _lanes(layout)
     e, w, n, s = lane["east"], lane["west"], lane["north"], lane["south"]
     h = layout.levels
     top = len(h) - 1
-    points: list[tuple[float, float, float]] = [(w, s, 0), (e, s, 0), (e, n, 0), (w, n, 0), (w, s, 0)]
+    points: list[tuple[float, float, float]] = [(e, s, 0)]
     # climb: ramp k starts at the south end (east side, k even) or the north end (west side, k odd)
     for k in range(top):
         half = layout.ramp_length(k) / 2 + RAMP_END_MARGIN
@@ -114,6 +119,7 @@ def main_route(layout: StoreyLayout) -> list[list[float]]:
         else:
             x = lane["west_down"]
             points += [(x, s, h[k + 1]), (x, -half, h[k + 1]), (x, half, h[k]), (x, n, h[k])]
+    points += [(w, s, 0), (w, n, 0), (e, n, 0)]  # the ground ring, clockwise, back to the start
     cleaned: list[list[float]] = []
     for p in points:
         q = [round(float(v), 3) for v in p]

@@ -71,8 +71,9 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _drive(args: argparse.Namespace) -> int:
-    import sim  # the simulator is only needed here; importing it selects headless rendering
     from tqdm import tqdm
+
+    import sim  # the simulator is only needed here; importing it selects headless rendering
 
     from .tum import write_tum, yaw_quaternion
 
@@ -88,12 +89,12 @@ def _drive(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     times, truths, odometry = [], [], []
     started = time.perf_counter()
-    with tqdm(total=round(drive.total_distance, 1), unit="m", desc=f"{world.name}/{drive.route.name}") as bar:
+    with tqdm(total=int(drive.total_distance), unit="m", desc=f"{world.name}/{drive.route.name}") as bar:
         for frame in drive:
             times.append(frame.time)
             truths.append(frame.ground_truth)
             odometry.append(frame.odometry)
-            bar.update(round(min(frame.progress, drive.total_distance) - bar.n, 1))
+            bar.update(min(int(frame.progress), bar.total) - bar.n)
     elapsed = time.perf_counter() - started
     times = np.array(times)
     positions = np.array([t.position for t in truths])
@@ -124,7 +125,8 @@ def _drive(args: argparse.Namespace) -> int:
         ("distance", f"{summary['distance_m']:.1f} m"),
         ("levels visited", f"{summary['levels_visited']} of {list(range(len(world.levels)))}"),
         ("height range", f"{summary['height_range_m'][0]:.2f} .. {summary['height_range_m'][1]:.2f} m"),
-        ("ms per frame", "physics {physics:.2f}, render {render:.2f}, total {total:.2f}".format(**summary["ms_per_frame"])),
+        ("ms per frame", "physics {physics:.2f}, render {render:.2f}, total {total:.2f}".format(
+            **summary["ms_per_frame"])),
         ("output", str(out)),
     ]
     width = max(len(name) for name, _ in rows)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -41,7 +41,7 @@ class RouteGraph:
         points, rows, columns = [], [], []
         offset = 0
         for route in world.routes.values():
-            count = max(2, int(math.ceil(route.length / spacing)) + (0 if route.loop else 1))
+            count = max(2, math.ceil(route.length / spacing) + (0 if route.loop else 1))
             distances = np.linspace(0.0, route.length, count, endpoint=not route.loop)
             samples = route.point_at(distances)
             points.append(samples)
@@ -104,7 +104,8 @@ class DriveEnv(gym.Env):
 
     ## Starting State
     At rest on a floor point of the route (not on a ramp) drawn uniformly along it from the ``reset``
-    seed, facing along the route. ``options={"start": [x, y, z, yaw]}`` sets it explicitly (z is the floor height there).
+    seed, facing along the route. ``options={"start": [x, y, z, yaw]}`` sets it explicitly (z is the floor
+    height there).
 
     ## Episode End
     ``terminated`` when the robot tips over (roll or pitch beyond 45 degrees); ``truncated`` by the time
@@ -125,7 +126,7 @@ class DriveEnv(gym.Env):
     * v0: initial version.
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 10}
 
     def __init__(
         self,
@@ -189,7 +190,7 @@ class DriveEnv(gym.Env):
         if self._chassis_touching():
             self._collisions += 1
         truth = self.simulation.ground_truth()
-        w, x, y, z = truth.quaternion
+        _w, x, y, _z = truth.quaternion
         tipped = (1 - 2 * (x * x + y * y)) < math.cos(math.radians(45))  # body z-axis tilted > 45 degrees
         reward, terminated = self._reward_and_termination(truth)
         observation, info = self._observation(), self._info()
@@ -344,7 +345,8 @@ class PointNavEnv(DriveEnv):
         else:
             field = self.graph.distances_from(self.graph.nearest(position))
             candidates = field[self._floor_nodes]
-            eligible = self._floor_nodes[(candidates >= self.min_goal_distance) & (candidates <= self.max_goal_distance)]
+            in_range = (candidates >= self.min_goal_distance) & (candidates <= self.max_goal_distance)
+            eligible = self._floor_nodes[in_range]
             if eligible.size == 0:  # a small world: take the farthest floor point
                 eligible = self._floor_nodes[[int(np.argmax(np.where(np.isfinite(candidates), candidates, -1)))]]
             self.goal = self.graph.points[int(self.np_random.choice(eligible))].copy()

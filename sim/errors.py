@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["SimError", "InvalidParameterError", "WorldError", "RouteError"]
+__all__ = ["InvalidParameterError", "RouteError", "SimError", "WorldError"]
 
 
 class SimError(Exception):

@@ -57,7 +57,9 @@ class RobotConfig:
     def wheel_speeds(self, forward_speed: float, yaw_rate: float) -> tuple[float, float]:
         """Left and right wheel angular speeds (rad/s) for a body motion (m/s, rad/s)."""
         half = self.wheel_separation / 2
-        return (forward_speed - yaw_rate * half) / self.wheel_radius, (forward_speed + yaw_rate * half) / self.wheel_radius
+        left = (forward_speed - yaw_rate * half) / self.wheel_radius
+        right = (forward_speed + yaw_rate * half) / self.wheel_radius
+        return left, right
 
 
 @dataclass(frozen=True)

@@ -244,7 +244,8 @@ class Simulation:
     def set_command(self, forward_speed: float, yaw_rate: float) -> tuple[float, float]:
         """Command a forward speed (m/s) and yaw rate (rad/s), clipped to the robot's range.
 
-        The wheels reach the command within the robot's acceleration limits. Returns the clipped command. Raises :class:`InvalidParameterError` on NaN or infinity.
+        The wheels reach the command within the robot's acceleration limits. Returns the clipped command.
+        Raises :class:`InvalidParameterError` on NaN or infinity.
         """
         for name, value in (("forward_speed", forward_speed), ("yaw_rate", yaw_rate)):
             if not math.isfinite(value):

@@ -32,10 +32,10 @@ def test_worlds_lists_levels_and_routes(capsys):
 
 def test_short_drive_writes_trajectories_and_summary(tmp_path, capsys):
     assert main(["drive", "gen:2", "--max-frames", "30", "--out", str(tmp_path), "--seed", "1"]) == 0
-    times, positions, quaternions = read_tum(tmp_path / "groundtruth.tum")
+    times, _positions, quaternions = read_tum(tmp_path / "groundtruth.tum")
     assert len(times) == 30 and times[1] == pytest.approx(0.1)
     np.testing.assert_allclose(np.linalg.norm(quaternions, axis=1), 1.0, atol=1e-6)
-    odometry_times, odometry_positions, _ = read_tum(tmp_path / "odometry.tum")
+    odometry_times, _odometry_positions, _ = read_tum(tmp_path / "odometry.tum")
     np.testing.assert_array_equal(odometry_times, times)
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["frames"] == 30 and summary["world"] == "gen:2"

@@ -1,23 +1,24 @@
 """Scripted drives complete their laps on every level and stay on the drivable surface; the camera
 stream changes while moving and repeats exactly with the same seed."""
 
+import itertools
 import math
 
 import mujoco
 import numpy as np
 import pytest
+from conftest import BUILTIN_WORLDS, GENERATED_WORLDS
 
 import sim
-
-from conftest import BUILTIN_WORLDS, GENERATED_WORLDS
 
 
 def _floor_distance(simulation, position):
     """Distance from 5 cm above ``position`` straight down to the first world surface, m."""
     geomid = np.zeros(1, dtype=np.int32)
-    start = np.array(position, dtype=float) + [0, 0, 0.05]
+    start = np.asarray(position, dtype=float) + np.array([0.0, 0.0, 0.05])
     robot = simulation.model.body("robot/").id
-    distance = mujoco.mj_ray(simulation.model, simulation.data, start, np.array([0.0, 0.0, -1.0]), None, 1, robot, geomid)
+    down = np.array([0.0, 0.0, -1.0])
+    distance = mujoco.mj_ray(simulation.model, simulation.data, start, down, None, 1, robot, geomid)
     return distance - 0.05 if distance >= 0 else math.inf
 
 
@@ -32,7 +33,7 @@ def test_scripted_drive_completes_a_lap_on_every_level_without_leaving_the_floor
         heights.append(truth.position[2])
         off_route.append(np.min(np.linalg.norm(reference - truth.position, axis=1)))
         off_floor.append(abs(_floor_distance(drive.simulation, truth.position)))
-        w, x, y, z = truth.quaternion
+        _w, x, y, _z = truth.quaternion
         tilt.append(math.degrees(math.acos(min(1.0, 1 - 2 * (x * x + y * y)))))
     # a whole lap: the progress covers the route and the robot is back where it started
     assert frame.lap == 1 and frame.progress >= route.length - 0.3
@@ -65,12 +66,12 @@ def test_camera_frames_change_while_moving_and_repeat_with_the_same_seed():
         with sim.ScriptedDrive("urban", max_frames=25, seed=seed) as drive:
             return list(drive)
     first, second = run(3), run(3)
-    for a, b in zip(first, second):
+    for a, b in zip(first, second, strict=True):
         np.testing.assert_array_equal(a.image, b.image)
         np.testing.assert_array_equal(a.ground_truth.pose, b.ground_truth.pose)
         assert a.odometry == b.odometry
-    moving = [f for f in first[5:]]
-    for a, b in zip(moving, moving[1:]):
+    moving = list(first[5:])
+    for a, b in itertools.pairwise(moving):
         assert a.image.shape == (120, 160, 3) and a.image.dtype == np.uint8
         assert np.mean(np.abs(a.image.astype(int) - b.image.astype(int))) > 0.5
     other = run(4)
@@ -83,13 +84,14 @@ def test_panoramic_camera_stitches_four_views():
         (frame,) = list(drive)
     assert frame.image.shape == (48, 256, 3)
     quarters = np.split(frame.image.astype(int), 4, axis=1)
-    assert all(np.mean(np.abs(a - b)) > 1.0 for a, b in zip(quarters, quarters[1:]))
+    assert all(np.mean(np.abs(a - b)) > 1.0 for a, b in itertools.pairwise(quarters))
 
 
 def test_stuck_robot_is_reported(tmp_path):
     (tmp_path / "box.xml").write_text("""<mujoco><worldbody><geom type="plane" size="10 10 .1"/>
       <geom type="box" size="0.1 3 1" pos="2 0 1"/></worldbody></mujoco>""")
-    (tmp_path / "box.routes.json").write_text('{"routes": {"through": {"waypoints": [[0,0,0],[5,0,0]], "loop": false}}}')
+    (tmp_path / "box.routes.json").write_text(
+        '{"routes": {"through": {"waypoints": [[0,0,0],[5,0,0]], "loop": false}}}')
     drive = sim.ScriptedDrive(sim.load_world(tmp_path / "box.xml"), render=False, stuck_timeout=5.0)
     with pytest.raises(sim.DriveStuckError, match="stuck"):
         for _ in drive:

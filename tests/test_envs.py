@@ -75,12 +75,12 @@ def test_pointnav_reaches_an_explicit_goal_and_reports_success_and_spl():
         start = [-14.0, -12.5, 0.0, 0.0]
         goal = [-6.0, -12.5, 0.0]
         observation, info = env.reset(seed=0, options={"start": start, "goal": goal})
-        distance, bearing, height = observation["goal"]
+        distance, bearing, _height = observation["goal"]
         assert distance == pytest.approx(8.0, abs=0.02) and bearing == pytest.approx(0.0, abs=0.01)
         assert info["distance_to_goal"] == pytest.approx(8.0, abs=0.3)
         total = 0.0
         for _ in range(200):
-            observation, reward, terminated, truncated, info = env.step(np.array([1.5, 2.0 * observation["goal"][1]]))
+            observation, reward, terminated, _truncated, info = env.step(np.array([1.5, 2.0 * observation["goal"][1]]))
             total += reward
             if terminated:
                 break
@@ -123,10 +123,10 @@ def test_vector_env_rollout(mode):
     envs = gym.make_vec("NeuroSLAM/PointNav-v0", num_envs=2, vectorization_mode=mode, vector_kwargs=kwargs,
                         world="gen:3")
     try:
-        observations, infos = envs.reset(seed=[1, 2])
+        observations, _ = envs.reset(seed=[1, 2])
         assert observations["image"].shape == (2, 120, 160, 3)
         for _ in range(5):
-            observations, rewards, terminated, truncated, infos = envs.step(envs.action_space.sample())
+            observations, rewards, _terminated, _truncated, _infos = envs.step(envs.action_space.sample())
         assert rewards.shape == (2,) and observations["goal"].shape == (2, 3)
         assert not np.array_equal(observations["image"][0], observations["image"][1])
     finally:

@@ -10,7 +10,8 @@ from sim.world import parse_routes
 
 
 def test_route_geometry():
-    routes, levels = parse_routes({"routes": {"square": {"waypoints": [[0, 0, 0], [4, 0, 0], [4, 3, 0]], "loop": True}}})
+    square = {"waypoints": [[0, 0, 0], [4, 0, 0], [4, 3, 0]], "loop": True}
+    routes, levels = parse_routes({"routes": {"square": square}})
     route = routes["square"]
     assert route.length == pytest.approx(12.0)
     np.testing.assert_allclose(route.point_at(5.0), [4, 1, 0])

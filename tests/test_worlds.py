@@ -7,13 +7,12 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
+from conftest import BUILTIN_WORLDS, GENERATED_WORLDS
 
 import sim
-from sim.arenas import BUILTIN_BUILDERS, generated, routes_json, subtract_rectangles, Rect
+from sim.arenas import BUILTIN_BUILDERS, Rect, generated, routes_json, subtract_rectangles
 from sim.simulation import Simulation
 from sim.world import _worlds_directory
-
-from conftest import BUILTIN_WORLDS, GENERATED_WORLDS
 
 
 @pytest.mark.parametrize("name", BUILTIN_WORLDS + GENERATED_WORLDS + ["gen:11", "gen:12"])
@@ -45,7 +44,7 @@ def _ramp_slopes(xml: str) -> list[float]:
     slopes = []
     for geom in ET.fromstring(xml).iter("geom"):
         if geom.get("name", "").startswith("ramp"):
-            w, x, y, z = map(float, geom.get("quat").split())
+            _w, x, y, _z = map(float, geom.get("quat").split())
             # angle between the ramp's surface normal (local z) and the world's z
             normal_z = 1 - 2 * (x * x + y * y)
             slopes.append(math.degrees(math.acos(max(-1.0, min(1.0, normal_z)))))

@@ -6,5 +6,5 @@ from pathlib import Path
 from . import BUILTIN_BUILDERS, write_world
 
 directory = Path(sys.argv[1] if len(sys.argv) > 1 else "worlds")
-for name, build in BUILTIN_BUILDERS.items():
+for build in BUILTIN_BUILDERS.values():
     print(write_world(build(), directory))

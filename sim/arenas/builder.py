@@ -8,6 +8,7 @@ the same seed always gives the same world. All lengths are metres, angles radian
 
 from __future__ import annotations
 
+import itertools
 import math
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
@@ -53,9 +54,9 @@ def subtract_rectangles(outer: Rect, holes: Sequence[Rect]) -> list[Rect]:
     xs = sorted({outer.x0, outer.x1, *(min(max(v, outer.x0), outer.x1) for h in holes for v in (h.x0, h.x1))})
     ys = sorted({outer.y0, outer.y1, *(min(max(v, outer.y0), outer.y1) for h in holes for v in (h.y0, h.y1))})
     strips: list[Rect] = []
-    for y0, y1 in zip(ys[:-1], ys[1:]):
+    for y0, y1 in itertools.pairwise(ys):
         start = None
-        for x0, x1 in zip(xs[:-1], xs[1:]):
+        for x0, x1 in itertools.pairwise(xs):
             cell = Rect(x0, x1, y0, y1)
             free = not any(cell.overlaps(h) for h in holes)
             if free and start is None:
@@ -226,8 +227,9 @@ class WorldBuilder:
 
         ``direction`` is one of ``+x, -x, +y, -y``. The ramp gets side walls from ``bottom`` to
         ``top + railing`` (they also close the space under it and act as railings on the upper level),
-        a wall under its high end (kept 0.3 m below the surface so it never forms a step), and (``low_railing``) a railing across the opening at the upper
-        level's low end, for ramps that come up through a hole in a floor.
+        a wall under its high end (kept 0.3 m below the surface so it never forms a step), and (when
+        ``low_railing``) a railing across the opening at the upper level's low end, for ramps that come
+        up through a hole in a floor.
         Returns the opening the upper floor slab must leave (``area`` itself).
         """
         if direction not in ("+x", "-x", "+y", "-y"):

@@ -4,12 +4,14 @@ Every world here shares one skeleton (:func:`build_storeys`): a rectangular foot
 the given heights, ramps alternating between the east side (rising +y) and the west side (rising -y),
 and a ring lane on every level. The main route climbs every ramp with a ring on each level, comes back
 down, drives the ring of the ground level and returns to its start, so lower-level places are revisited
-after the upper ones (on the way down and on the next lap), as in the NeuroSLAM paper's datasets. Flavours add what makes each place look like
+after the upper ones (on the way down and on the next lap), as in the NeuroSLAM paper's datasets.
+Flavours add what makes each place look like
 itself: pillars, parked cars and lane markings; rooms and doorways; random obstacles.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -17,7 +19,7 @@ import numpy as np
 
 from .builder import Rect, WorldBuilder, subtract_rectangles
 
-__all__ = ["StoreyLayout", "WorldSource", "build_storeys", "carpark", "building", "generated"]
+__all__ = ["StoreyLayout", "WorldSource", "build_storeys", "building", "carpark", "generated"]
 
 RAMP_WIDTH = 4.0  # m
 RAMP_END_MARGIN = 0.4  # m: waypoints just beyond a ramp's ends, on flat floor
@@ -66,7 +68,8 @@ class StoreyLayout:
         return Rect(-self.width / 2, -self.width / 2 + RAMP_WIDTH, -half, half)
 
     def validate(self) -> None:
-        if len(self.levels) < 2 or self.levels[0] != 0.0 or any(b <= a for a, b in zip(self.levels, self.levels[1:])):
+        if len(self.levels) < 2 or self.levels[0] != 0.0 or any(
+                b <= a for a, b in itertools.pairwise(self.levels)):
             raise ValueError(f"levels={self.levels!r}: need two or more increasing heights starting at 0")
         if not 0 < self.slope <= math.radians(12.0) + 1e-9:
             raise ValueError(f"slope={self.slope!r}: must be in (0, 12 degrees]")
@@ -219,7 +222,7 @@ def carpark(seed: int = 1) -> WorldSource:
                     builder.box([x, y, 1.5], [0.3, 0.3, 1.5], material=pillar, kind="pillar")
                 else:
                     builder.cylinder([x, y, height + 2.0], 0.08, 2.0, material=pillar)
-        for x0, x1 in zip(xs[:-1], xs[1:]):
+        for x0, x1 in itertools.pairwise(xs):
             for y in (core.y0 + 2.8, core.y1 - 2.8):
                 if builder.rng.uniform() < 0.75:
                     _parked_car(builder, (x0 + x1) / 2, y, height, math.pi / 2 + builder.rng.normal(0, 0.05))
@@ -237,7 +240,7 @@ def _rooms(builder: WorldBuilder, core: Rect, floor: float, height: float, rooms
     xs = np.linspace(core.x0, core.x1, rooms + 1)
     for x in xs[1:-1]:
         builder.wall((x, core.y0), (x, core.y1), floor, top, material=builder.material("wall"))
-    for a, b in zip(xs[:-1], xs[1:]):
+    for a, b in itertools.pairwise(xs):
         middle = (a + b) / 2
         for y in (core.y0, core.y1):  # a doorway in each room's long sides
             builder.wall((a, y), (middle - door / 2, y), floor, top, material=wall)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -20,7 +21,7 @@ HALF_X, HALF_Y = 46.0, 28.0
 def _block(builder: WorldBuilder, area: Rect, count: int) -> None:
     """A row of ``count`` buildings of random height filling ``area``, with shop signs at street level."""
     xs = np.linspace(area.x0, area.x1, count + 1)
-    for a, b in zip(xs[:-1], xs[1:]):
+    for a, b in itertools.pairwise(xs):
         height = float(builder.rng.uniform(6.0, 22.0))
         builder.box([(a + b) / 2, (area.y0 + area.y1) / 2, height / 2], [(b - a) / 2 - 0.2, (area.y1 - area.y0) / 2,
                     height / 2], material=builder.material("facade"), kind="building")

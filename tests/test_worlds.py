@@ -126,3 +126,16 @@ def test_mjcf_that_does_not_compile_is_reported(tmp_path):
     (tmp_path / "broken.routes.json").write_text('{"routes": {"a": {"waypoints": [[0,0,0],[1,0,0]]}}}')
     with pytest.raises(sim.WorldError, match="broken"):
         Simulation(sim.load_world(tmp_path / "broken.xml"))
+
+
+def test_visual_profiles():
+    world = sim.load_world("carpark")
+    images = {}
+    for quality in ("fast", "high"):
+        with Simulation(world, quality=quality) as simulation:
+            assert simulation.model.vis.quality.shadowsize == (0 if quality == "fast" else 4096)
+            assert bool(simulation.model.light_castshadow.all()) == (quality == "high")
+            images[quality] = simulation.render()
+    assert np.mean(np.abs(images["fast"].astype(int) - images["high"].astype(int))) > 1.0
+    with pytest.raises(sim.InvalidParameterError, match="quality"):
+        Simulation(world, quality="ultra")

@@ -1,0 +1,388 @@
+"""Parameters of NeuroSLAM as frozen dataclasses, with validation and loading from dicts and files.
+
+Every section validates itself on construction and names the offending field (``grid_cells.size``).
+Units: metres, seconds and radians at the boundary; cells only inside the networks. Defaults are the
+``sim`` preset (the testbed's 160×120, 80° camera); :mod:`neuroslam.presets` holds the paper's tables.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .errors import InvalidParameterError
+
+__all__ = [
+    "Config", "ExperienceMapConfig", "GridCellConfig", "HeadDirectionConfig", "LocalViewConfig", "Region",
+    "VisualOdometryConfig", "load_config",
+]
+
+
+def _number(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _require(path: str, value: object, ok: bool, reason: str) -> None:
+    if not ok:
+        raise InvalidParameterError(path, value, reason)
+
+
+def _positive(section: str, **values: object) -> None:
+    for name, value in values.items():
+        _require(f"{section}.{name}", value, _number(value) and value > 0, "must be a positive number")
+
+
+def _non_negative(section: str, **values: object) -> None:
+    for name, value in values.items():
+        _require(f"{section}.{name}", value, _number(value) and value >= 0, "must be a number >= 0")
+
+
+def _odd_width(section: str, name: str, value: object, limit: int) -> None:
+    _require(f"{section}.{name}", value, isinstance(value, int) and not isinstance(value, bool)
+             and value >= 1 and value % 2 == 1 and value <= limit,
+             f"must be an odd number of cells from 1 to {limit} (odd, so a resting packet cannot drift)")
+
+
+def _cells(section: str, name: str, value: object, dimensions: int) -> None:
+    ok = (isinstance(value, tuple) and len(value) == dimensions
+          and all(isinstance(v, int) and not isinstance(v, bool) and 4 <= v <= 512 for v in value))
+    _require(f"{section}.{name}", value, ok, f"must be {dimensions} integers from 4 to 512 (cells)")
+
+
+@dataclass(frozen=True)
+class Region:
+    """A crop of the image as fractions of its height (top, bottom) and width (left, right)."""
+
+    top: float = 0.0
+    bottom: float = 1.0
+    left: float = 0.0
+    right: float = 1.0
+
+    def validate(self, path: str) -> None:
+        for name in ("top", "bottom", "left", "right"):
+            value = getattr(self, name)
+            _require(f"{path}.{name}", value, _number(value) and 0 <= value <= 1, "must be a fraction in [0, 1]")
+        _require(f"{path}.bottom", self.bottom, self.bottom > self.top, "must be greater than top")
+        _require(f"{path}.right", self.right, self.right > self.left, "must be greater than left")
+
+
+@dataclass(frozen=True)
+class VisualOdometryConfig:
+    """Visual odometry from scanline intensity profiles ("aidvo", eqs. 27–32).
+
+    Attributes:
+        rotation_region: crop whose column profile gives the yaw rate (eqs. 27–29).
+        translation_region: crop whose profile difference gives the speed (eq. 30).
+        height_region: crop whose row profile gives pitch changes (eqs. 31–32).
+        profile_width: columns the rotation/translation profiles are resampled to.
+        max_column_shift: largest profile shift searched, as a fraction of the profile width.
+        max_row_shift: largest row shift searched, as a fraction of the height region's rows.
+        speed_scale: metres per frame per unit of mean absolute profile difference (mu of eq. 30).
+        max_speed: speed clip, m/s (v_max of eq. 30). max_yaw_rate: yaw-rate clip, rad/s.
+        max_climb_rate: climb-rate clip, m/s (v_max^h).
+        pitch_leak: rate at which the integrated pitch relaxes to level, 1/s.
+        pitch_flow_bias: apparent pitch change per metre driven on level ground, rad/m (calibration).
+        climb_scale: gain on the climb rate speed × sin(pitch) (calibration).
+        yaw_scale: gain on the yaw rate from the column shift (calibration; 1 = geometric).
+    """
+
+    rotation_region: Region = Region(0.25, 0.75, 0.0, 1.0)
+    translation_region: Region = Region(0.5, 1.0, 0.0, 1.0)
+    height_region: Region = Region(0.2, 0.8, 0.1, 0.9)
+    profile_width: int = 160
+    max_column_shift: float = 0.2
+    max_row_shift: float = 0.2
+    speed_scale: float = 12.5
+    max_speed: float = 2.5
+    max_yaw_rate: float = 2.5
+    max_climb_rate: float = 0.6
+    pitch_leak: float = 0.05
+    pitch_flow_bias: float = 0.0135
+    climb_scale: float = 1.0
+    yaw_scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self, path: str = "odometry") -> None:
+        for name in ("rotation_region", "translation_region", "height_region"):
+            region = getattr(self, name)
+            _require(f"{path}.{name}", region, isinstance(region, Region), "must be a Region")
+            region.validate(f"{path}.{name}")
+        _require(f"{path}.profile_width", self.profile_width, isinstance(self.profile_width, int)
+                 and 8 <= self.profile_width <= 4096, "must be an integer from 8 to 4096 columns")
+        for name in ("max_column_shift", "max_row_shift"):
+            value = getattr(self, name)
+            _require(f"{path}.{name}", value, _number(value) and 0 < value < 0.5, "must be a fraction in (0, 0.5)")
+        _positive(path, speed_scale=self.speed_scale, max_speed=self.max_speed, max_yaw_rate=self.max_yaw_rate,
+                  max_climb_rate=self.max_climb_rate, climb_scale=self.climb_scale, yaw_scale=self.yaw_scale)
+        _non_negative(path, pitch_leak=self.pitch_leak)
+        _require(f"{path}.pitch_flow_bias", self.pitch_flow_bias, _number(self.pitch_flow_bias),
+                 "must be a number (rad/m)")
+
+
+@dataclass(frozen=True)
+class LocalViewConfig:
+    """Local view cells: patch-normalised thumbnails matched by shifted mean absolute difference.
+
+    Attributes:
+        region: crop of the image the thumbnail is taken from.
+        thumbnail: (rows, columns) of the thumbnail.
+        patch_size: side of the patch normalisation window, pixels (eq. 26), odd.
+        max_row_shift, max_column_shift: shifts tried when matching, thumbnail pixels.
+        threshold: largest mean absolute difference (of patch-normalised values) that still matches.
+        candidates: templates pre-selected cheaply before the exact shifted comparison.
+    """
+
+    region: Region = Region(0.0, 1.0, 0.0, 1.0)
+    thumbnail: tuple[int, int] = (12, 16)
+    patch_size: int = 5
+    max_row_shift: int = 2
+    max_column_shift: int = 4
+    threshold: float = 0.45
+    candidates: int = 24
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self, path: str = "local_view") -> None:
+        _require(f"{path}.region", self.region, isinstance(self.region, Region), "must be a Region")
+        self.region.validate(f"{path}.region")
+        ok = (isinstance(self.thumbnail, tuple) and len(self.thumbnail) == 2
+              and all(isinstance(v, int) and 4 <= v <= 256 for v in self.thumbnail))
+        _require(f"{path}.thumbnail", self.thumbnail, ok, "must be (rows, columns), integers from 4 to 256")
+        _odd_width(path, "patch_size", self.patch_size, 31)
+        for name, limit in (("max_row_shift", self.thumbnail[0] // 2), ("max_column_shift", self.thumbnail[1] // 2)):
+            value = getattr(self, name)
+            _require(f"{path}.{name}", value, isinstance(value, int) and 0 <= value < max(limit, 1),
+                     f"must be an integer from 0 to {max(limit, 1) - 1} pixels")
+        _positive(path, threshold=self.threshold)
+        _require(f"{path}.candidates", self.candidates, isinstance(self.candidates, int) and self.candidates >= 1,
+                 "must be a positive integer")
+
+
+@dataclass(frozen=True)
+class GridCellConfig:
+    """3D grid cells (eqs. 1–11).
+
+    Attributes:
+        size: cells along (x, y, z). cell_size: metres per cell along (x, y, z).
+        excitation_width, excitation_variance: Gaussian excitatory kernel (eq. 1), cells and cells².
+        inhibition_width, inhibition_variance: Gaussian inhibitory kernel (eq. 4).
+        inhibition_scale: weight of the local inhibition (1 in the paper, which is unstable; see
+            :mod:`neuroslam.cells.attractor`).
+        global_inhibition: phi of eq. 4, subtracted from every cell each frame.
+        view_injection: delta of eq. 11, strength of local view calibration.
+        readout_radius: half-width of the window of the circular-mean read-out, cells.
+        shift: path integration by an exact phase ramp (``fourier``) or the paper's blend (``linear``).
+    """
+
+    size: tuple[int, int, int] = (36, 36, 36)
+    cell_size: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    excitation_width: int = 7
+    excitation_variance: float = 1.5
+    inhibition_width: int = 5
+    inhibition_variance: float = 2.0
+    inhibition_scale: float = 0.7
+    global_inhibition: float = 0.0002
+    view_injection: float = 0.1
+    readout_radius: int = 4
+    shift: str = "fourier"
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self, path: str = "grid_cells") -> None:
+        _cells(path, "size", self.size, 3)
+        ok = isinstance(self.cell_size, tuple) and len(self.cell_size) == 3 and all(
+            _number(v) and v > 0 for v in self.cell_size)
+        _require(f"{path}.cell_size", self.cell_size, ok, "must be three positive lengths in metres")
+        _odd_width(path, "excitation_width", self.excitation_width, min(self.size))
+        _odd_width(path, "inhibition_width", self.inhibition_width, min(self.size))
+        _positive(path, excitation_variance=self.excitation_variance, inhibition_variance=self.inhibition_variance)
+        _non_negative(path, global_inhibition=self.global_inhibition, view_injection=self.view_injection)
+        _require(f"{path}.inhibition_scale", self.inhibition_scale, _number(self.inhibition_scale)
+                 and 0 <= self.inhibition_scale < 1, "must be in [0, 1)")
+        _require(f"{path}.shift", self.shift, self.shift in ("fourier", "linear"), "must be 'fourier' or 'linear'")
+        _require(f"{path}.readout_radius", self.readout_radius, isinstance(self.readout_radius, int)
+                 and 1 <= self.readout_radius < min(self.size) // 2, "must be an integer from 1 to size/2 - 1")
+
+
+@dataclass(frozen=True)
+class HeadDirectionConfig:
+    """Multilayered head-direction cells (eqs. 12–20): yaw × height.
+
+    Attributes:
+        size: cells along (yaw, height). height_cell_size: metres per height cell.
+        The yaw cell size is 2 pi / size[0] radians. Other fields as in :class:`GridCellConfig`.
+        The paper's 8-cell excitatory width is even, which makes a resting packet drift; 9 is used,
+        and the read-out window is ±6 cells (the paper's ±5 cuts the packet and biases the read-out).
+    """
+
+    size: tuple[int, int] = (36, 36)
+    height_cell_size: float = 1.0
+    excitation_width: int = 9
+    excitation_variance: float = 1.9
+    inhibition_width: int = 5
+    inhibition_variance: float = 3.0
+    inhibition_scale: float = 0.7
+    global_inhibition: float = 0.0002
+    view_injection: float = 0.1
+    readout_radius: int = 6
+    shift: str = "fourier"
+
+    @property
+    def yaw_cell_size(self) -> float:
+        """Radians per yaw cell."""
+        return 2 * math.pi / self.size[0]
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self, path: str = "head_direction") -> None:
+        _cells(path, "size", self.size, 2)
+        _positive(path, height_cell_size=self.height_cell_size, excitation_variance=self.excitation_variance,
+                  inhibition_variance=self.inhibition_variance)
+        _odd_width(path, "excitation_width", self.excitation_width, min(self.size))
+        _odd_width(path, "inhibition_width", self.inhibition_width, min(self.size))
+        _non_negative(path, global_inhibition=self.global_inhibition, view_injection=self.view_injection)
+        _require(f"{path}.inhibition_scale", self.inhibition_scale, _number(self.inhibition_scale)
+                 and 0 <= self.inhibition_scale < 1, "must be in [0, 1)")
+        _require(f"{path}.shift", self.shift, self.shift in ("fourier", "linear"), "must be 'fourier' or 'linear'")
+        _require(f"{path}.readout_radius", self.readout_radius, isinstance(self.readout_radius, int)
+                 and 1 <= self.readout_radius < min(self.size) // 2, "must be an integer from 1 to size/2 - 1")
+
+
+@dataclass(frozen=True)
+class ExperienceMapConfig:
+    """Multilayered experience map (eqs. 21–25).
+
+    Attributes:
+        view_weight, grid_weight, direction_weight: mu^lv, mu^gc, mu^hdc of eq. 22; the grid and
+            direction distances are in cells, the view term is 1 for a different template.
+        threshold: S_max of eq. 22; a score above it for every experience creates a new one.
+        correction: psi of eq. 25, per relaxation pass (scaled by each experience's number of links).
+        relaxation_passes: passes of eq. 25 after a loop closure.
+        idle_passes: passes of eq. 25 on frames without a loop closure.
+    """
+
+    view_weight: float = 10.0
+    grid_weight: float = 1.0
+    direction_weight: float = 1.0
+    threshold: float = 3.0
+    correction: float = 0.5
+    relaxation_passes: int = 20
+    idle_passes: int = 1
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self, path: str = "experience_map") -> None:
+        _non_negative(path, view_weight=self.view_weight, grid_weight=self.grid_weight,
+                      direction_weight=self.direction_weight)
+        _positive(path, threshold=self.threshold)
+        _require(f"{path}.correction", self.correction, _number(self.correction) and 0 < self.correction <= 1,
+                 "must be in (0, 1]")
+        for name in ("relaxation_passes", "idle_passes"):
+            value = getattr(self, name)
+            _require(f"{path}.{name}", value, isinstance(value, int) and 0 <= value <= 1000,
+                     "must be an integer from 0 to 1000")
+
+
+@dataclass(frozen=True)
+class Config:
+    """All NeuroSLAM parameters.
+
+    Attributes:
+        horizontal_fov: the camera's horizontal field of view, rad (2 pi for a panorama).
+        vertical_fov: the camera's vertical field of view, rad.
+        panoramic: True when image columns wrap around (a 360-degree strip).
+    """
+
+    horizontal_fov: float = math.radians(80.0)
+    vertical_fov: float = 2 * math.atan(math.tan(math.radians(40.0)) * 0.75)
+    panoramic: bool = False
+    odometry: VisualOdometryConfig = field(default_factory=VisualOdometryConfig)
+    local_view: LocalViewConfig = field(default_factory=LocalViewConfig)
+    grid_cells: GridCellConfig = field(default_factory=GridCellConfig)
+    head_direction: HeadDirectionConfig = field(default_factory=HeadDirectionConfig)
+    experience_map: ExperienceMapConfig = field(default_factory=ExperienceMapConfig)
+
+    def __post_init__(self) -> None:
+        _require("horizontal_fov", self.horizontal_fov, _number(self.horizontal_fov)
+                 and 0 < self.horizontal_fov <= 2 * math.pi + 1e-9, "must be in (0, 2 pi] radians")
+        _require("vertical_fov", self.vertical_fov, _number(self.vertical_fov) and 0 < self.vertical_fov < math.pi,
+                 "must be in (0, pi) radians")
+        _require("panoramic", self.panoramic, isinstance(self.panoramic, bool), "must be true or false")
+        for name, kind in _SECTIONS.items():
+            section = getattr(self, name)
+            _require(name, section, isinstance(section, kind), f"must be a {kind.__name__}")
+            section.validate(name)
+
+    def replace(self, **changes: Any) -> Config:
+        """A copy with some top-level fields or whole sections replaced."""
+        return dataclasses.replace(self, **changes)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], *, base: Config | None = None) -> Config:
+        """Build a config from nested plain data (as read from TOML or JSON) over ``base`` (defaults).
+
+        Unknown keys are refused with the closest known name suggested.
+        """
+        base = base or cls()
+        if not isinstance(data, dict):
+            raise InvalidParameterError("config", type(data).__name__, "must be a table of settings")
+        return _merge(base, data, "")
+
+    def to_dict(self) -> dict[str, Any]:
+        """Nested plain data (tuples as lists), the inverse of :meth:`from_dict`."""
+        return json.loads(json.dumps(dataclasses.asdict(self)))
+
+
+_SECTIONS = {
+    "odometry": VisualOdometryConfig, "local_view": LocalViewConfig, "grid_cells": GridCellConfig,
+    "head_direction": HeadDirectionConfig, "experience_map": ExperienceMapConfig,
+}
+
+
+def _merge(base: Any, data: dict[str, Any], prefix: str) -> Any:
+    fields = {f.name: f for f in dataclasses.fields(base)}
+    changes: dict[str, Any] = {}
+    for key, value in data.items():
+        path = f"{prefix}{key}"
+        if key not in fields:
+            close = difflib.get_close_matches(str(key), list(fields), n=1)
+            hint = f" (did you mean {prefix + close[0]!r}?)" if close else f"; known: {', '.join(fields)}"
+            raise InvalidParameterError(path, value, f"unknown setting{hint}")
+        current = getattr(base, key)
+        if dataclasses.is_dataclass(current):
+            if not isinstance(value, dict):
+                raise InvalidParameterError(path, value, "must be a table of settings")
+            changes[key] = _merge(current, value, f"{path}.")
+        elif isinstance(current, tuple):
+            if not isinstance(value, (list, tuple)):
+                raise InvalidParameterError(path, value, f"must be a list of {len(current)} values")
+            changes[key] = tuple(value)
+        else:
+            changes[key] = value
+    return dataclasses.replace(base, **changes)  # every section validates itself on construction
+
+
+def load_config(path: str | Path, *, base: Config | None = None) -> Config:
+    """Read a TOML (``.toml``) or JSON (``.json``) file of settings over ``base`` (default: the defaults)."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as error:
+        raise InvalidParameterError("config", str(path), f"cannot read ({error.strerror})") from None
+    try:
+        data = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
+    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as error:
+        raise InvalidParameterError("config", str(path), f"not valid {path.suffix or 'TOML'} ({error})") from None
+    return Config.from_dict(data, base=base)

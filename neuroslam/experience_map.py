@@ -1,0 +1,243 @@
+"""The multilayered experience map (eqs. 21–25): a graph of experiences linked by 4-DoF odometry.
+
+An experience (eq. 21) joins a conjunctive code (local view cell, 3D grid cell, head-direction cell)
+with a pose (x, y, z, yaw) in the map frame. Each frame the current code is scored against every
+experience (eq. 22, one vectorised pass); the best experience under the threshold becomes current, or a
+new experience is created at the odometric pose and linked from the current one (eqs. 23–24). A link
+stores the relative pose in its source's frame: distance, heading (direction of travel relative to the
+source's yaw), facing (yaw change) and height change, plus the time it took. Re-entering an existing
+experience closes a loop; relaxation (eq. 25) then pulls every pair of linked experiences towards the
+relative pose their link stores, all links at once, each experience's correction divided by its
+number of links (a plain sum diverges at experiences with several links).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .cells.attractor import wrapped_distance
+from .config import ExperienceMapConfig
+
+__all__ = ["ExperienceMap", "MapUpdate"]
+
+
+def _wrap(angle: np.ndarray | float) -> np.ndarray | float:
+    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
+
+
+@dataclass(frozen=True)
+class MapUpdate:
+    """What one frame did to the map.
+
+    Attributes:
+        experience_id: the current experience after the update.
+        new_experience: a new experience was created.
+        loop_closure: an existing experience (other than the current one) was re-entered.
+    """
+
+    experience_id: int
+    new_experience: bool
+    loop_closure: bool
+
+
+class _Growing:
+    """A contiguous array that doubles its capacity as rows are appended."""
+
+    def __init__(self, columns: int, dtype: type):
+        self.data = np.zeros((64, columns) if columns else 64, dtype=dtype)
+        self.count = 0
+
+    def append(self, row) -> None:
+        if self.count == len(self.data):
+            self.data = np.concatenate([self.data, np.zeros_like(self.data)])
+        self.data[self.count] = row
+        self.count += 1
+
+    @property
+    def view(self) -> np.ndarray:
+        return self.data[: self.count]
+
+
+class ExperienceMap:
+    """Experiences, links, matching and relaxation.
+
+    Args:
+        config: map parameters (Table 8).
+        grid_size: cells of the grid-cell network (x, y, z), for wrapped code distances.
+        direction_size: cells of the head-direction network (yaw, height).
+    """
+
+    def __init__(self, config: ExperienceMapConfig = ExperienceMapConfig(), *,
+                 grid_size: tuple[int, int, int] = (36, 36, 36), direction_size: tuple[int, int] = (36, 36)):
+        config.validate("experience_map")
+        self.config = config
+        self.grid_size = grid_size
+        self.direction_size = direction_size
+        self._poses = _Growing(4, np.float64)
+        self._grid_codes = _Growing(3, np.float64)
+        self._direction_codes = _Growing(2, np.float64)
+        self._templates = _Growing(0, np.int64)
+        self._times = _Growing(0, np.float64)
+        self._links = _Growing(2, np.int64)
+        self._link_poses = _Growing(4, np.float64)  # distance, heading, facing, height change
+        self._link_times = _Growing(0, np.float64)
+        self._degree = _Growing(0, np.int64)
+        self._linked: set[tuple[int, int]] = set()
+        self.current = -1
+        self.relative = np.zeros(4)  # odometric pose of the robot in the current experience's frame
+        self.loop_closures = 0
+
+    # the map as arrays -----------------------------------------------------------------------------------
+    @property
+    def size(self) -> int:
+        """Number of experiences."""
+        return self._poses.count
+
+    @property
+    def poses(self) -> np.ndarray:
+        """(N, 4) experience poses x, y, z (m), yaw (rad)."""
+        return self._poses.view
+
+    @property
+    def grid_codes(self) -> np.ndarray:
+        """(N, 3) grid-cell codes, fractional cells."""
+        return self._grid_codes.view
+
+    @property
+    def direction_codes(self) -> np.ndarray:
+        """(N, 2) head-direction codes (yaw, height), fractional cells."""
+        return self._direction_codes.view
+
+    @property
+    def template_ids(self) -> np.ndarray:
+        """(N,) local view cell of each experience."""
+        return self._templates.view
+
+    @property
+    def creation_times(self) -> np.ndarray:
+        """(N,) time each experience was created, s."""
+        return self._times.view
+
+    @property
+    def links(self) -> np.ndarray:
+        """(L, 2) source and target experience of each link."""
+        return self._links.view
+
+    @property
+    def link_poses(self) -> np.ndarray:
+        """(L, 4) distance (m), heading (rad), facing (rad), height change (m) of each link."""
+        return self._link_poses.view
+
+    @property
+    def link_times(self) -> np.ndarray:
+        """(L,) seconds between leaving the source and reaching the target."""
+        return self._link_times.view
+
+    def robot_pose(self) -> np.ndarray:
+        """The robot's pose in the map: the current experience composed with the odometry since it."""
+        if self.current < 0:
+            return self.relative.copy()
+        return self._compose(self.poses[self.current], self.relative)
+
+    @staticmethod
+    def _compose(pose: np.ndarray, relative: np.ndarray) -> np.ndarray:
+        x, y, z, yaw = pose
+        c, s = math.cos(yaw), math.sin(yaw)
+        return np.array([x + c * relative[0] - s * relative[1], y + s * relative[0] + c * relative[1],
+                         z + relative[2], float(_wrap(yaw + relative[3]))])
+
+    # per frame ----------------------------------------------------------------------------------------
+    def integrate(self, distance: float, yaw_change: float, height_change: float) -> None:
+        """Add one frame of self-motion (m, rad, m) to the odometry since the current experience."""
+        heading = self.relative[3] + yaw_change / 2
+        self.relative += [distance * math.cos(heading), distance * math.sin(heading), height_change, yaw_change]
+
+    def scores(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray) -> np.ndarray:
+        """Eq. 22 against every experience: weighted view mismatch plus wrapped code distances (cells)."""
+        config = self.config
+        view = (self.template_ids != template_id).astype(float)
+        grid = wrapped_distance(self.grid_codes, grid_code, self.grid_size)
+        direction = wrapped_distance(self.direction_codes, direction_code, self.direction_size)
+        return config.view_weight * view + config.grid_weight * grid + config.direction_weight * direction
+
+    def update(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float) -> MapUpdate:
+        """Match the current conjunctive code, create or re-enter an experience, relax after a loop closure."""
+        if self.current < 0:
+            self._create(template_id, grid_code, direction_code, time, pose=self.relative.copy())
+            self.relative[:] = 0
+            return MapUpdate(self.current, True, False)
+        scores = self.scores(template_id, grid_code, direction_code)
+        best = int(np.argmin(scores))
+        if scores[best] > self.config.threshold:
+            previous = self.current
+            self._create(template_id, grid_code, direction_code, time, pose=self.robot_pose())
+            self._link(previous, self.current, time)
+            self.relative[:] = 0
+            self._relax(self.config.idle_passes)
+            return MapUpdate(self.current, True, False)
+        if best == self.current:
+            self._relax(self.config.idle_passes)
+            return MapUpdate(self.current, False, False)
+        previous = self.current
+        closes_loop = (previous, best) not in self._linked and (best, previous) not in self._linked
+        if closes_loop:
+            self._link(previous, best, time)
+            self.loop_closures += 1
+        self.current = best
+        self.relative[:] = 0
+        self._relax(self.config.relaxation_passes if closes_loop else self.config.idle_passes)
+        return MapUpdate(best, False, closes_loop)
+
+    # graph ----------------------------------------------------------------------------------------------
+    def _create(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float,
+                pose: np.ndarray) -> None:
+        self._poses.append(pose)
+        self._grid_codes.append(grid_code)
+        self._direction_codes.append(direction_code)
+        self._templates.append(template_id)
+        self._times.append(time)
+        self._degree.append(0)
+        self.current = self.size - 1
+
+    def _link(self, source: int, target: int, time: float) -> None:
+        """Link ``source`` → ``target`` with the odometry accumulated since ``source`` (eq. 23)."""
+        dx, dy, dz, dyaw = self.relative
+        distance = math.hypot(dx, dy)
+        heading = math.atan2(dy, dx) if distance > 0 else 0.0
+        self._links.append((source, target))
+        self._link_poses.append((distance, heading, float(_wrap(dyaw)), dz))
+        self._link_times.append(time - self.creation_times[source])
+        self._degree.data[source] += 1
+        self._degree.data[target] += 1
+        self._linked.add((source, target))
+
+    def _relax(self, passes: int) -> None:
+        """Eq. 25 over all links at once, ``passes`` times."""
+        if passes == 0 or self._links.count == 0:
+            return
+        sources, targets = self.links[:, 0], self.links[:, 1]
+        distance, heading, facing, height = self.link_poses.T
+        degree = np.maximum(self._degree.view, 1).astype(float)
+        poses = self._poses.data
+        n = self.size
+        for _ in range(passes):
+            source_poses = poses[sources]
+            direction = source_poses[:, 3] + heading
+            expected = np.column_stack([
+                source_poses[:, 0] + distance * np.cos(direction),
+                source_poses[:, 1] + distance * np.sin(direction),
+                source_poses[:, 2] + height,
+                source_poses[:, 3] + facing,
+            ])
+            error = expected - poses[targets]
+            error[:, 3] = _wrap(error[:, 3])
+            correction = np.zeros((n, 4))
+            for axis in range(4):
+                correction[:, axis] = (np.bincount(targets, error[:, axis], n)
+                                       - np.bincount(sources, error[:, axis], n))
+            correction *= (self.config.correction / degree[:, None]) / 2
+            poses[:n] += correction
+            poses[:n, 3] = _wrap(poses[:n, 3])

@@ -1,0 +1,224 @@
+"""The NeuroSLAM pipeline: one :meth:`NeuroSLAM.step` per camera frame.
+
+Per frame, in the paper's order (Algorithm 1):
+
+1. vision: grey image, visual odometry (or the caller's own self-motion) and the local view cells;
+2. head-direction cells: attractor dynamics and path integration by the yaw and height change;
+3. grid cells: attractor dynamics and path integration by the translation along the decoded yaw;
+4. local view calibration: a familiar view injects the activity it learned (eqs. 10–11) into both
+   networks; a new view learns the current packets;
+5. experience map: the odometry since the current experience, matching, creation, loop closure and
+   relaxation (eqs. 21–25).
+
+Every frame's state stays inspectable: ``grid_cells.activity``, ``head_direction.activity``, the last
+:class:`Estimate`, the map arrays.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .cells import GridCells, HeadDirectionCells
+from .config import Config, load_config
+from .errors import InvalidInputError, InvalidParameterError
+from .experience_map import ExperienceMap
+from .vision.local_view import LocalViewCells
+from .vision.odometry import SelfMotion, VisualOdometry
+from .vision.preprocessing import grey
+
+__all__ = ["Estimate", "NeuroSLAM"]
+
+logger = logging.getLogger(__name__)
+
+VIEW_DECAY_TIME = 10.0  # s: how fast a repeatedly seen view regains its full calibration strength
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """The SLAM state after one frame.
+
+    Attributes:
+        timestamp: the frame's time, s.
+        pose: (x, y, z, yaw) in the map frame, m and rad.
+        experience_id: the current experience. template_id: the active local view cell.
+        loop_closure: an existing experience was re-entered this frame.
+        new_experience, new_template: created this frame.
+        self_motion: the self-motion used for this frame.
+        grid_cell: decoded 3D grid-cell packet, fractional cells. head_direction_cell: (yaw, height) cells.
+    """
+
+    timestamp: float
+    pose: np.ndarray
+    experience_id: int
+    template_id: int
+    loop_closure: bool
+    new_experience: bool
+    new_template: bool
+    self_motion: SelfMotion
+    grid_cell: np.ndarray
+    head_direction_cell: np.ndarray
+
+
+class NeuroSLAM:
+    """Brain-inspired 4-DoF SLAM.
+
+    Args:
+        config: a :class:`~neuroslam.config.Config`, a preset name (see :mod:`neuroslam.presets`), a path
+            to a TOML or JSON file of settings, or None for the defaults (the ``sim`` preset).
+
+    Example::
+
+        slam = NeuroSLAM("sim")
+        for image, t in frames:
+            estimate = slam.step(image, t)
+        slam.experience_map.poses
+    """
+
+    def __init__(self, config: Config | str | Path | None = None):
+        self.config = _resolve(config)
+        c = self.config
+        self.visual_odometry = VisualOdometry(c.odometry, horizontal_fov=c.horizontal_fov, vertical_fov=c.vertical_fov,
+                                              panoramic=c.panoramic)
+        self.local_view = LocalViewCells(c.local_view, horizontal_fov=c.horizontal_fov, panoramic=c.panoramic)
+        self.grid_cells = GridCells(c.grid_cells)
+        self.head_direction = HeadDirectionCells(c.head_direction)
+        self.experience_map = ExperienceMap(c.experience_map, grid_size=c.grid_cells.size,
+                                            direction_size=c.head_direction.size)
+        self._view_grid = np.zeros((64, 3))
+        self._view_direction = np.zeros((64, 2))
+        self._view_decay = np.zeros((64, 2))  # (decay, time of last activation)
+        self._image_shape: tuple[int, ...] | None = None
+        self._last_time: float | None = None
+        self._odometry_pose = np.zeros(4)
+        self.frames = 0
+        self.last: Estimate | None = None
+
+    @property
+    def odometry_pose(self) -> np.ndarray:
+        """(x, y, z, yaw): the self-motion integrated without any map correction, m and rad."""
+        return self._odometry_pose.copy()
+
+    # input checks (nothing changes when they fail) -----------------------------------------------------
+    def _check(self, image: np.ndarray, timestamp: float, odometry: SelfMotion | None) -> np.ndarray:
+        array = np.asarray(image)
+        if array.ndim not in (2, 3) or (array.ndim == 3 and array.shape[2] not in (1, 3)):
+            raise InvalidInputError("image", f"shape {array.shape}", "must be HxW grey or HxWx3 RGB")
+        if array.size == 0 or min(array.shape[:2]) < 8:
+            raise InvalidInputError("image", f"shape {array.shape}", "must be at least 8x8 pixels")
+        if not (np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating)):
+            raise InvalidInputError("image", f"dtype {array.dtype}", "must be uint8 or floats in [0, 1]")
+        if np.issubdtype(array.dtype, np.floating) and not np.all(np.isfinite(array)):
+            raise InvalidInputError("image", "with NaN or infinity", "must be finite")
+        if self._image_shape is not None and array.shape != self._image_shape:
+            raise InvalidInputError("image", f"shape {array.shape}",
+                                    f"differs from the first frame's {self._image_shape}")
+        if not isinstance(timestamp, (int, float, np.integer, np.floating)) or not math.isfinite(timestamp):
+            raise InvalidInputError("timestamp", repr(timestamp), "must be a finite number of seconds")
+        if self._last_time is not None and timestamp <= self._last_time:
+            raise InvalidInputError("timestamp", repr(timestamp), f"must increase (previous: {self._last_time!r})")
+        if odometry is not None:
+            if not isinstance(odometry, SelfMotion):
+                raise InvalidInputError("odometry", type(odometry).__name__, "must be a SelfMotion")
+            try:
+                odometry.validate()
+            except ValueError as error:
+                raise InvalidInputError("odometry", str(error), "must be finite") from None
+        if array.ndim == 3 and array.shape[2] == 1:
+            array = array[:, :, 0]
+        return array
+
+    # the pipeline ----------------------------------------------------------------------------------------
+    def step(self, image: np.ndarray, timestamp: float, odometry: SelfMotion | None = None) -> Estimate:
+        """Process one frame.
+
+        Args:
+            image: HxWx3 RGB or HxW grey, uint8 or floats in [0, 1]; every frame the same size.
+            timestamp: seconds, increasing.
+            odometry: self-motion from another source (wheels, IMU, VIO); visual odometry otherwise.
+
+        Raises:
+            InvalidInputError: a bad image, timestamp or odometry; the SLAM state is left unchanged.
+        """
+        array = self._check(image, timestamp, odometry)
+        image_grey = grey(array)
+        dt = 0.0 if self._last_time is None else float(timestamp) - self._last_time
+        motion = odometry if odometry is not None else self.visual_odometry.step(image_grey, dt)
+        distance, yaw_change, climb = motion.forward_speed * dt, motion.yaw_rate * dt, motion.climb_rate * dt
+
+        view = self.local_view.observe(self.local_view.thumbnail(image_grey))
+
+        self.head_direction.step(yaw_change, climb)
+        heading = self.head_direction.yaw()
+        self.grid_cells.step((distance * math.cos(heading), distance * math.sin(heading), climb))
+
+        if view.new:
+            self._learn_view(view.template_id, float(timestamp))
+        else:
+            self._recall_view(view.template_id, view.relative_yaw, float(timestamp))
+
+        grid_code = self.grid_cells.decode()
+        direction_code = self.head_direction.decode()
+        self.experience_map.integrate(distance, yaw_change, climb)
+        update = self.experience_map.update(view.template_id, grid_code, direction_code, float(timestamp))
+
+        x, y, z, yaw = self._odometry_pose
+        middle = yaw + yaw_change / 2
+        self._odometry_pose = np.array([x + distance * math.cos(middle), y + distance * math.sin(middle), z + climb,
+                                        math.atan2(math.sin(yaw + yaw_change), math.cos(yaw + yaw_change))])
+        self._image_shape = array.shape
+        self._last_time = float(timestamp)
+        self.frames += 1
+        self.last = Estimate(float(timestamp), self.experience_map.robot_pose(), update.experience_id,
+                             view.template_id, update.loop_closure, update.new_experience, view.new, motion,
+                             grid_code, direction_code)
+        if update.loop_closure:
+            logger.debug("frame %d: loop closed at experience %d", self.frames, update.experience_id)
+        return self.last
+
+    def _learn_view(self, template: int, time: float) -> None:
+        """Eq. 10: a new local view cell associates with the current grid and head-direction packets."""
+        if template >= len(self._view_grid):
+            self._view_grid = np.concatenate([self._view_grid, np.zeros_like(self._view_grid)])
+            self._view_direction = np.concatenate([self._view_direction, np.zeros_like(self._view_direction)])
+            self._view_decay = np.concatenate([self._view_decay, np.zeros_like(self._view_decay)])
+        self._view_grid[template] = self.grid_cells.decode()
+        self._view_direction[template] = self.head_direction.decode()
+        self._view_decay[template] = (1.0, time)
+
+    def _recall_view(self, template: int, relative_yaw: float, time: float) -> None:
+        """Eq. 11: a familiar view injects its learned packets.
+
+        The decay rule: every activation adds 1 to the view's decay, which falls back exponentially
+        (time constant 10 s); the injected energy is the configured strength divided by (1 + decay), so
+        a view seen frame after frame (a robot standing still) does not overwhelm path integration.
+        """
+        decay, last = self._view_decay[template]
+        decay = decay * math.exp(-(time - last) / VIEW_DECAY_TIME) + 1.0
+        self._view_decay[template] = (decay, time)
+        scale = 1.0 / (1.0 + decay)
+        direction = self._view_direction[template].copy()
+        direction[0] += relative_yaw / self.head_direction.yaw_cell_size
+        self.grid_cells.inject(self._view_grid[template], self.config.grid_cells.view_injection * scale)
+        self.head_direction.inject(direction, self.config.head_direction.view_injection * scale)
+        self.grid_cells.normalise()
+        self.head_direction.normalise()
+
+
+def _resolve(config: Config | str | Path | None) -> Config:
+    if config is None:
+        return Config()
+    if isinstance(config, Config):
+        return config
+    if isinstance(config, (str, Path)):
+        text = str(config)
+        if text.endswith((".toml", ".json")) or Path(text).is_file():
+            return load_config(text)
+        from . import presets
+
+        return presets.get(text)
+    raise InvalidParameterError("config", type(config).__name__, "must be a Config, a preset name or a file path")

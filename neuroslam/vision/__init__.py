@@ -1,0 +1,7 @@
+"""The vision module: preprocessing, visual odometry ("aidvo") and local view cells."""
+
+from .local_view import LocalViewCells, ViewMatch
+from .odometry import SelfMotion, VisualOdometry
+from .preprocessing import crop, grey, patch_normalise, resize
+
+__all__ = ["LocalViewCells", "SelfMotion", "ViewMatch", "VisualOdometry", "crop", "grey", "patch_normalise", "resize"]

@@ -1,0 +1,145 @@
+"""Local view cells: one cell per stored visual template (Fig. 9, and eqs. 10–11 for what they recall).
+
+A view is a patch-normalised thumbnail (eq. 26). It is compared with every stored template by the mean
+absolute difference over the overlap of the two after a 2-D shift (rows ±``max_row_shift``, columns
+±``max_column_shift``; in panoramic mode the columns shift circularly over the whole strip). The best
+template within ``threshold`` becomes active; otherwise the view is stored as a new template.
+
+All templates live in one contiguous array. To keep the cost nearly flat as the map grows, a cheap,
+shift-tolerant pre-selection picks ``candidates`` templates first: each thumbnail row's column spectrum
+magnitude (unchanged by a circular column shift) compared by one matrix-vector product; the exact
+shifted comparison then runs on those candidates only.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..config import LocalViewConfig
+from .preprocessing import crop, patch_normalise, resize
+
+__all__ = ["LocalViewCells", "ViewMatch"]
+
+
+@dataclass(frozen=True)
+class ViewMatch:
+    """The outcome of one view.
+
+    Attributes:
+        template_id: the active local view cell.
+        new: True when the view was stored as a new template this frame.
+        difference: mean absolute difference to the matched template (0 for a new one).
+        column_shift: columns the view is shifted against the template (positive: content moved right).
+        relative_yaw: the yaw of the view relative to the template's, rad (counter-clockwise positive).
+    """
+
+    template_id: int
+    new: bool
+    difference: float
+    column_shift: int
+    relative_yaw: float
+
+
+class LocalViewCells:
+    """Visual templates and the local view cells they drive.
+
+    Args:
+        config: template parameters (Table 7).
+        horizontal_fov: the camera's horizontal field of view, rad (for the relative yaw of a match).
+        panoramic: columns wrap around (a 360-degree strip).
+    """
+
+    def __init__(self, config: LocalViewConfig = LocalViewConfig(), *, horizontal_fov: float = math.radians(80),
+                 panoramic: bool = False):
+        config.validate("local_view")
+        self.config = config
+        self.panoramic = panoramic
+        rows, columns = config.thumbnail
+        self.radians_per_column = (2 * math.pi if panoramic else horizontal_fov) / columns
+        self._size = rows * columns
+        self._descriptor_size = rows * (columns // 2 + 1)
+        self._templates = np.empty((64, rows, columns), dtype=np.float32)
+        self._descriptors = np.empty((64, self._descriptor_size), dtype=np.float32)
+        self.count = 0
+        if panoramic:
+            half = columns // 2
+            self._column_shifts = np.arange(-half + 1, half + 1)
+        else:
+            self._column_shifts = np.arange(-config.max_column_shift, config.max_column_shift + 1)
+        self._row_shifts = np.arange(-config.max_row_shift, config.max_row_shift + 1)
+
+    @property
+    def templates(self) -> np.ndarray:
+        """The stored templates, shape (count, rows, columns), patch-normalised (a view, not a copy)."""
+        return self._templates[: self.count]
+
+    def thumbnail(self, grey_image: np.ndarray) -> np.ndarray:
+        """The patch-normalised thumbnail of a grey image (crop, area resize, eq. 26)."""
+        region = crop(grey_image, self.config.region)
+        small = resize(region, self.config.thumbnail)
+        return patch_normalise(small, self.config.patch_size, wrap_columns=self.panoramic)
+
+    def _descriptor(self, thumbnail: np.ndarray) -> np.ndarray:
+        spectrum = np.abs(np.fft.rfft(thumbnail, axis=1)).ravel()
+        norm = np.linalg.norm(spectrum)
+        return (spectrum / norm if norm > 0 else spectrum).astype(np.float32)
+
+    def compare(self, thumbnail: np.ndarray, indices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Smallest shifted mean absolute difference to the templates ``indices`` and the column shift of it.
+
+        Returns (differences (K,), column shifts (K,)).
+        """
+        templates = self._templates[indices]
+        rows, columns = thumbnail.shape
+        best = np.full(len(indices), np.inf, dtype=np.float32)
+        best_shift = np.zeros(len(indices), dtype=int)
+        for dr in self._row_shifts:
+            view_rows = slice(max(dr, 0), rows + min(dr, 0))
+            template_rows = slice(max(-dr, 0), rows + min(-dr, 0))
+            view = thumbnail[view_rows]
+            stored = templates[:, template_rows]
+            for dc in self._column_shifts:
+                if self.panoramic:
+                    difference = np.abs(stored - np.roll(view, -dc, axis=1)).mean(axis=(1, 2))
+                else:
+                    view_columns = slice(max(dc, 0), columns + min(dc, 0))
+                    template_columns = slice(max(-dc, 0), columns + min(-dc, 0))
+                    difference = np.abs(stored[:, :, template_columns] - view[:, view_columns]).mean(axis=(1, 2))
+                better = difference < best
+                best = np.where(better, difference, best)
+                best_shift = np.where(better, dc, best_shift)
+        return best, best_shift
+
+    def candidates(self, thumbnail: np.ndarray) -> np.ndarray:
+        """Indices of the templates most similar in the shift-tolerant descriptor (at most ``candidates``)."""
+        if self.count <= self.config.candidates:
+            return np.arange(self.count)
+        similarity = self._descriptors[: self.count] @ self._descriptor(thumbnail)
+        chosen = np.argpartition(-similarity, self.config.candidates - 1)[: self.config.candidates]
+        return np.sort(chosen)
+
+    def observe(self, thumbnail: np.ndarray) -> ViewMatch:
+        """Match a thumbnail against the templates; store it as a new template when nothing matches."""
+        if self.count:
+            indices = self.candidates(thumbnail)
+            differences, shifts = self.compare(thumbnail, indices)
+            best = int(np.argmin(differences))
+            if differences[best] <= self.config.threshold:
+                shift = int(shifts[best])
+                # content moved right (positive shift) means the camera turned left: positive yaw
+                return ViewMatch(int(indices[best]), False, float(differences[best]), shift,
+                                 shift * self.radians_per_column)
+        return ViewMatch(self.add(thumbnail), True, 0.0, 0, 0.0)
+
+    def add(self, thumbnail: np.ndarray) -> int:
+        """Store a thumbnail as a new template; returns its id."""
+        if self.count == len(self._templates):
+            self._templates = np.concatenate([self._templates, np.empty_like(self._templates)])
+            self._descriptors = np.concatenate([self._descriptors, np.empty_like(self._descriptors)])
+        self._templates[self.count] = thumbnail
+        self._descriptors[self.count] = self._descriptor(thumbnail)
+        self.count += 1
+        return self.count - 1

@@ -1,0 +1,60 @@
+"""Image preprocessing: grey conversion, crops, area resizing and patch normalisation (eq. 26)."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from ..config import Region
+
+__all__ = ["crop", "grey", "patch_normalise", "resize"]
+
+_LUMA = np.array([0.299, 0.587, 0.114], dtype=np.float32)
+
+
+def grey(image: np.ndarray) -> np.ndarray:
+    """Grey levels in [0, 1] (float32) from an HxWx3 RGB or HxW grey image of uint8 or floats in [0, 1]."""
+    array = np.asarray(image)
+    scale = 1.0 / 255.0 if array.dtype == np.uint8 else 1.0
+    if array.ndim == 3:
+        return (array.astype(np.float32) @ _LUMA) * np.float32(scale)
+    return array.astype(np.float32) * np.float32(scale)
+
+
+def crop(image: np.ndarray, region: Region) -> np.ndarray:
+    """The part of ``image`` inside ``region`` (fractions of height and width; at least one pixel)."""
+    rows, columns = image.shape[:2]
+    top = min(int(round(region.top * rows)), rows - 1)
+    bottom = max(int(round(region.bottom * rows)), top + 1)
+    left = min(int(round(region.left * columns)), columns - 1)
+    right = max(int(round(region.right * columns)), left + 1)
+    return image[top:bottom, left:right]
+
+
+def resize(image: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Area-average ``image`` to ``shape`` (rows, columns): every output pixel is the mean of the input
+    pixels it covers (fractional coverage at the edges), so no input pixel is skipped."""
+    rows, columns = image.shape
+    out_rows, out_columns = shape
+    return _area_matrix(rows, out_rows) @ image @ _area_matrix(columns, out_columns).T
+
+
+def _area_matrix(size: int, out: int) -> np.ndarray:
+    """(out, size) matrix whose rows average the input cells covered by each output cell."""
+    edges = np.linspace(0.0, size, out + 1)
+    cells = np.arange(size)
+    overlap = np.clip(np.minimum(edges[1:, None], cells + 1) - np.maximum(edges[:-1, None], cells), 0.0, None)
+    return (overlap / overlap.sum(axis=1, keepdims=True)).astype(np.float32)
+
+
+def patch_normalise(image: np.ndarray, patch_size: int, *, wrap_columns: bool = False) -> np.ndarray:
+    """Subtract the local mean and divide by the local standard deviation over a square patch (eq. 26).
+
+    Flat patches (standard deviation below 1e-3 of the grey range) become 0 rather than noise.
+    ``wrap_columns`` treats the columns as circular (panoramic images).
+    """
+    mode = ("nearest", "wrap") if wrap_columns else "nearest"
+    mean = ndimage.uniform_filter(image, patch_size, mode=mode)
+    mean_square = ndimage.uniform_filter(image * image, patch_size, mode=mode)
+    deviation = np.sqrt(np.maximum(mean_square - mean * mean, 0.0))
+    return ((image - mean) / np.maximum(deviation, 1e-3)).astype(np.float32)

@@ -1,0 +1,45 @@
+"""Configuration: presets, files, and clear errors for unknown keys, wrong types and bad ranges."""
+
+import json
+
+import pytest
+
+from neuroslam import Config, InvalidParameterError, load_config, presets
+
+
+def test_presets_exist_and_differ():
+    assert presets.names() == ["sim", "synper", "synpan", "carpark"]
+    assert presets.get("synpan").panoramic and not presets.get("sim").panoramic
+    assert presets.get("synper").head_direction.view_injection == 0.001  # Table 6
+    with pytest.raises(InvalidParameterError, match="did you mean 'synpan'"):
+        presets.get("synpn")
+
+
+@pytest.mark.parametrize("data, field, text", [
+    ({"grid_cell": {}}, "grid_cell", "did you mean 'grid_cells'"),
+    ({"experience_map": {"thresold": 1}}, "experience_map.thresold", "did you mean 'experience_map.threshold'"),
+    ({"grid_cells": {"size": [36, 36]}}, "grid_cells.size", "3 integers"),
+    ({"grid_cells": {"cell_size": [1, 0, 1]}}, "grid_cells.cell_size", "positive"),
+    ({"grid_cells": {"size": [0, 36, 36]}}, "grid_cells.size", "from 4 to 512"),
+    ({"local_view": {"threshold": -1}}, "local_view.threshold", "positive"),
+    ({"local_view": {"threshold": "low"}}, "local_view.threshold", "positive"),
+    ({"odometry": {"height_region": {"top": 0.9, "bottom": 0.5}}}, "odometry.height_region.bottom", "greater"),
+    ({"experience_map": {"correction": 2}}, "experience_map.correction", "(0, 1]"),
+    ({"horizontal_fov": -1}, "horizontal_fov", "radians"),
+])
+def test_bad_settings_name_the_field(data, field, text):
+    with pytest.raises(InvalidParameterError) as error:
+        Config.from_dict(data)
+    assert error.value.field == field
+    assert text in str(error.value)
+
+
+def test_files_round_trip(tmp_path):
+    config = Config.from_dict({"grid_cells": {"size": [20, 20, 10]}, "experience_map": {"threshold": 2.5}})
+    (tmp_path / "c.json").write_text(json.dumps(config.to_dict()))
+    assert load_config(tmp_path / "c.json") == config
+    (tmp_path / "c.toml").write_text("[grid_cells]\nsize = [20, 20, 10]\n[experience_map]\nthreshold = 2.5\n")
+    assert load_config(tmp_path / "c.toml") == config
+    (tmp_path / "bad.toml").write_text("[grid_cells\n")
+    with pytest.raises(InvalidParameterError, match="not valid"):
+        load_config(tmp_path / "bad.toml")

@@ -1,0 +1,69 @@
+"""Local view cells: a shifted copy of a stored view matches with its shift; an unrelated view does not."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from neuroslam.config import LocalViewConfig
+from neuroslam.vision import LocalViewCells
+
+
+def scene(seed, shape=(120, 400)):
+    """A smooth random grey scene, wider than one view so that views can be cut from it shifted."""
+    rng = np.random.default_rng(seed)
+    return ndimage.gaussian_filter(rng.random(shape), 3).astype(np.float32)
+
+
+def view(image, column, width=160):
+    return image[:, column:column + width]
+
+
+def test_shifted_copy_matches_with_its_shift_and_unrelated_view_is_new():
+    cells = LocalViewCells(LocalViewConfig(), horizontal_fov=math.radians(80))
+    world = scene(1)
+    first = cells.observe(cells.thumbnail(view(world, 100)))
+    assert first.new and first.template_id == 0
+    # the camera turned left by 20 px: the content moves right by 2 thumbnail columns (160 px -> 16 columns)
+    again = cells.observe(cells.thumbnail(view(world, 80)))
+    assert not again.new and again.template_id == 0
+    assert again.column_shift == 2
+    assert again.relative_yaw == pytest.approx(2 * math.radians(80) / 16)
+    other = cells.observe(cells.thumbnail(view(scene(2), 100)))
+    assert other.new and other.template_id == 1
+    assert cells.count == 2
+
+
+def test_panoramic_views_match_over_the_whole_circle():
+    cells = LocalViewCells(LocalViewConfig(thumbnail=(12, 48), max_column_shift=23), panoramic=True)
+    strip = scene(3, (120, 480))
+    cells.observe(cells.thumbnail(strip))
+    turned = np.roll(strip, -200, axis=1)  # the robot turned right by 150 degrees
+    match = cells.observe(cells.thumbnail(turned))
+    assert not match.new
+    assert match.column_shift == -20 and match.relative_yaw == pytest.approx(-20 * 2 * math.pi / 48)
+
+
+def test_preselection_keeps_the_brute_force_match():
+    """Recall of the cheap pre-selection against comparing with every template."""
+    cells = LocalViewCells(LocalViewConfig(candidates=16))
+    rng = np.random.default_rng(0)
+    worlds = [scene(s) for s in range(60)]
+    for w in worlds:
+        cells.add(cells.thumbnail(view(w, 100)))
+    hits = 0
+    for _ in range(60):
+        index = int(rng.integers(60))
+        query = cells.thumbnail(view(worlds[index], 100 + int(rng.integers(-30, 31))))
+        everything, _ = cells.compare(query, np.arange(cells.count))
+        chosen = cells.candidates(query)
+        hits += int(np.argmin(everything)) in set(chosen.tolist())
+    assert hits / 60 >= 0.95
+
+
+def test_templates_grow_in_one_contiguous_array():
+    cells = LocalViewCells()
+    for seed in range(100):
+        cells.add(cells.thumbnail(view(scene(seed), 0)))
+    assert cells.templates.shape == (100, 12, 16) and cells.templates.flags.c_contiguous

@@ -1,0 +1,72 @@
+"""Visual odometry on synthetic sequences with known motion: a textured panorama panned and shifted."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from neuroslam.config import Region, VisualOdometryConfig
+from neuroslam.vision import VisualOdometry
+from neuroslam.vision.odometry import best_shift, vertical_shift
+
+WIDTH, HEIGHT = 160, 120
+
+
+def panorama(seed=0, shape=(600, 1440)):
+    rng = np.random.default_rng(seed)
+    return ndimage.gaussian_filter(rng.random(shape), 2.0).astype(np.float32)
+
+
+def frames(columns_per_frame, rows_per_frame, count, *, strip=None):
+    """Views cut from a panorama moving ``columns_per_frame`` right and ``rows_per_frame`` down."""
+    strip = panorama() if strip is None else strip
+    for k in range(count):
+        row = int(round(240 - k * rows_per_frame))
+        column = int(round(600 - k * columns_per_frame))
+        yield strip[row:row + HEIGHT, column:column + WIDTH]
+
+
+def test_best_shift_finds_sub_pixel_shifts():
+    profile = ndimage.gaussian_filter1d(np.random.default_rng(1).random(300), 3)
+    x = np.arange(300)
+    moved = np.interp(x - 3.4, x, profile)  # content moved right by 3.4
+    shift, _ = best_shift(profile[20:280], moved[20:280], 10)
+    assert shift == pytest.approx(3.4, abs=0.15)
+    image = np.tile(profile[:60, None], (1, 50))
+    assert vertical_shift(image[5:55], image[3:53], 5) == pytest.approx(2.0, abs=0.05)
+
+
+@pytest.mark.parametrize("columns", [3, -4])
+def test_yaw_rate_from_a_panned_panorama(columns):
+    fov = math.radians(80)
+    odometry = VisualOdometry(VisualOdometryConfig(), horizontal_fov=fov, vertical_fov=math.radians(64))
+    rates = [odometry.step(frame, 0.1).yaw_rate for frame in frames(columns, 0, 12)][1:]
+    # content moving right (positive columns) means the camera turned left: counter-clockwise, positive
+    expected = columns * fov / WIDTH / 0.1
+    assert np.sign(np.median(rates)) == np.sign(columns)
+    assert np.median(rates) == pytest.approx(expected, rel=0.10)
+
+
+@pytest.mark.parametrize("rows", [1, -1])
+def test_height_rate_from_a_pitching_view(rows):
+    """The view tilts by ``rows`` per frame (content moving down: nose up); the climb rate must be the
+    measured speed times the sine of the integrated pitch."""
+    vertical_fov = math.radians(64)
+    config = VisualOdometryConfig(pitch_leak=0.0, pitch_flow_bias=0.0, max_climb_rate=10.0,
+                                  height_region=Region(0.1, 0.9, 0.1, 0.9), max_row_shift=0.25)
+    odometry = VisualOdometry(config, horizontal_fov=math.radians(80), vertical_fov=vertical_fov)
+    angle_per_row = 2 * math.tan(vertical_fov / 2) / HEIGHT
+    motions = [odometry.step(frame, 0.1) for frame in frames(0, rows, 16)]
+    pitch = 15 * rows * angle_per_row
+    assert odometry.pitch == pytest.approx(pitch, rel=0.10)
+    last = motions[-1]
+    assert np.sign(last.climb_rate) == np.sign(rows)
+    assert last.climb_rate == pytest.approx(last.forward_speed * math.sin(pitch), rel=0.10)
+
+
+def test_first_frame_has_no_motion_and_rates_are_clipped():
+    odometry = VisualOdometry(VisualOdometryConfig(max_yaw_rate=0.5))
+    views = list(frames(12, 0, 3))
+    assert odometry.step(views[0], 0.1).yaw_rate == 0.0
+    assert abs(odometry.step(views[1], 0.1).yaw_rate) <= 0.5 + 1e-9

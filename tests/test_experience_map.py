@@ -44,7 +44,7 @@ def _square_loop(error_scale):
 def _residuals(experience_map):
     poses = experience_map.poses
     out = []
-    for (source, target), (distance, heading, facing, height) in zip(experience_map.links, experience_map.link_poses,
+    for (source, target), (distance, heading, _facing, _height) in zip(experience_map.links, experience_map.link_poses,
                                                                      strict=True):
         direction = poses[source, 3] + heading
         expected = poses[source, :2] + distance * np.array([math.cos(direction), math.sin(direction)])

@@ -23,6 +23,8 @@ from .config import ExperienceMapConfig
 
 __all__ = ["ExperienceMap", "MapUpdate"]
 
+SETTLED = 1e-7  # m or rad: relaxation stops once no experience moves more than this in a pass
+
 
 def _wrap(angle: np.ndarray | float) -> np.ndarray | float:
     return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
@@ -86,6 +88,9 @@ class ExperienceMap:
         self._link_times = _Growing(0, np.float64)
         self._degree = _Growing(0, np.int64)
         self._linked: set[tuple[int, int]] = set()
+        self._by_template: dict[int, list[int]] = {}
+        self._slots: tuple[np.ndarray, np.ndarray] | None = None
+        self._settled = True
         self.current = -1
         self.relative = np.zeros(4)  # odometric pose of the robot in the current experience's frame
         self.loop_closures = 0
@@ -163,15 +168,31 @@ class ExperienceMap:
         direction = wrapped_distance(self.direction_codes, direction_code, self.direction_size)
         return config.view_weight * view + config.grid_weight * grid + config.direction_weight * direction
 
+    def _candidates(self, template_id: int) -> np.ndarray:
+        """Experiences that can score under the threshold: when a different view alone costs more than the
+        threshold, only the experiences of this view (an exact shortcut, not an approximation)."""
+        if self.config.view_weight > self.config.threshold:
+            return np.asarray(self._by_template.get(template_id, ()), dtype=np.int64)
+        return np.arange(self.size)
+
     def update(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float) -> MapUpdate:
         """Match the current conjunctive code, create or re-enter an experience, relax after a loop closure."""
         if self.current < 0:
             self._create(template_id, grid_code, direction_code, time, pose=self.relative.copy())
             self.relative[:] = 0
             return MapUpdate(self.current, True, False)
-        scores = self.scores(template_id, grid_code, direction_code)
-        best = int(np.argmin(scores))
-        if scores[best] > self.config.threshold:
+        candidates = self._candidates(template_id)
+        if len(candidates):
+            config = self.config
+            scores = (config.grid_weight * wrapped_distance(self.grid_codes[candidates], grid_code, self.grid_size)
+                      + config.direction_weight * wrapped_distance(self.direction_codes[candidates], direction_code,
+                                                                   self.direction_size)
+                      + config.view_weight * (self.template_ids[candidates] != template_id))
+            best_index = int(np.argmin(scores))
+            best, best_score = int(candidates[best_index]), float(scores[best_index])
+        else:
+            best, best_score = -1, math.inf
+        if best_score > self.config.threshold:
             previous = self.current
             self._create(template_id, grid_code, direction_code, time, pose=self.robot_pose())
             self._link(previous, self.current, time)
@@ -186,6 +207,7 @@ class ExperienceMap:
         if closes_loop:
             self._link(previous, best, time)
             self.loop_closures += 1
+            self._settled = False
         self.current = best
         self.relative[:] = 0
         self._relax(self.config.relaxation_passes if closes_loop else self.config.idle_passes)
@@ -198,6 +220,7 @@ class ExperienceMap:
         self._grid_codes.append(grid_code)
         self._direction_codes.append(direction_code)
         self._templates.append(template_id)
+        self._by_template.setdefault(int(template_id), []).append(self.size - 1)
         self._times.append(time)
         self._degree.append(0)
         self.current = self.size - 1
@@ -215,29 +238,42 @@ class ExperienceMap:
         self._linked.add((source, target))
 
     def _relax(self, passes: int) -> None:
-        """Eq. 25 over all links at once, ``passes`` times."""
-        if passes == 0 or self._links.count == 0:
+        """Eq. 25 over all links at once, ``passes`` times.
+
+        Once a pass moves no experience by more than ``SETTLED`` (m or rad) the map counts as settled and
+        further passes are skipped until a loop closure adds an inconsistent link (a link made from the
+        odometry to a new experience agrees with the poses by construction).
+        """
+        if passes == 0 or self._links.count == 0 or self._settled:
             return
         sources, targets = self.links[:, 0], self.links[:, 1]
         distance, heading, facing, height = self.link_poses.T
-        degree = np.maximum(self._degree.view, 1).astype(float)
-        poses = self._poses.data
         n = self.size
+        if self._slots is None or len(self._slots[0]) != 4 * len(sources):
+            # every link adds its error to its target's four (experience, axis) slots and subtracts it from
+            # its source's; rebuilt only when links are added
+            axes = np.arange(4)[None]
+            self._slots = ((targets[:, None] * 4 + axes).ravel(), (sources[:, None] * 4 + axes).ravel())
+        target_slots, source_slots = self._slots
+        scale = (self.config.correction / np.maximum(self._degree.view, 1) / 2)[:, None]
+        poses = self._poses.data
+        error = np.empty((len(sources), 4))
         for _ in range(passes):
             source_poses = poses[sources]
             direction = source_poses[:, 3] + heading
-            expected = np.column_stack([
-                source_poses[:, 0] + distance * np.cos(direction),
-                source_poses[:, 1] + distance * np.sin(direction),
-                source_poses[:, 2] + height,
-                source_poses[:, 3] + facing,
-            ])
-            error = expected - poses[targets]
+            np.cos(direction, out=error[:, 0])
+            np.sin(direction, out=error[:, 1])
+            error[:, :2] *= distance[:, None]
+            error[:, 2] = height
+            error[:, 3] = facing
+            error += source_poses
+            error -= poses[targets]
             error[:, 3] = _wrap(error[:, 3])
-            correction = np.zeros((n, 4))
-            for axis in range(4):
-                correction[:, axis] = (np.bincount(targets, error[:, axis], n)
-                                       - np.bincount(sources, error[:, axis], n))
-            correction *= (self.config.correction / degree[:, None]) / 2
-            poses[:n] += correction
+            flat = error.ravel()
+            correction = np.bincount(target_slots, flat, 4 * n) - np.bincount(source_slots, flat, 4 * n)
+            step = correction.reshape(n, 4) * scale
+            poses[:n] += step
             poses[:n, 3] = _wrap(poses[:n, 3])
+            if np.abs(step).max() < SETTLED:
+                self._settled = True
+                return

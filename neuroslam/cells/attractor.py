@@ -121,6 +121,10 @@ class AttractorNetwork:
             view = [1] * self.dimensions
             view[axis] = spectrum_shape[axis]
             self._wavenumbers.append(k.reshape(view))
+        self._offsets = np.arange(-self.readout_radius, self.readout_radius + 1)
+        self._other_axes = [tuple(a for a in range(self.dimensions) if a != axis) for axis in range(self.dimensions)]
+        self._unit_circle = [(np.cos(2 * math.pi * np.arange(n) / n).astype(dtype),
+                              np.sin(2 * math.pi * np.arange(n) / n).astype(dtype)) for n in self.shape]
         self.activity = np.zeros(self.shape, dtype=dtype)
         self.reset(start if start is not None else [0.0] * self.dimensions)
 
@@ -132,10 +136,11 @@ class AttractorNetwork:
         for _ in range(settle):
             self.step()
 
-    def shift_spectrum(self, displacement: Sequence[float]) -> np.ndarray:
-        """Spectrum of a shift by ``displacement`` cells (eqs. 6–9): a roll by the whole cells times the
-        residue's exact phase ramp (``fourier``) or its two-cell linear blend per axis (``linear``)."""
-        spectrum = np.ones((1,) * self.dimensions, dtype=np.complex128)
+    def shift_factors(self, displacement: Sequence[float]) -> list[np.ndarray]:
+        """Per-axis spectra of a shift by ``displacement`` cells (eqs. 6–9), broadcastable to the spectrum:
+        a roll by the whole cells times the residue's exact phase ramp (``fourier``) or its two-cell
+        linear blend (``linear``). Their product is the shift's spectrum."""
+        factors = []
         for k, d in zip(self._wavenumbers, displacement, strict=True):
             whole = math.floor(d)
             residue = d - whole
@@ -143,14 +148,23 @@ class AttractorNetwork:
                 factor = np.exp(-1j * k * d)
             else:
                 factor = np.exp(-1j * k * whole) * ((1 - residue) + residue * np.exp(-1j * k))
+            factors.append(factor.astype(self.kernel_spectrum.dtype))
+        return factors
+
+    def shift_spectrum(self, displacement: Sequence[float]) -> np.ndarray:
+        """The spectrum of a shift by ``displacement`` cells (the product of :meth:`shift_factors`)."""
+        spectrum = np.ones((1,) * self.dimensions, dtype=self.kernel_spectrum.dtype)
+        for factor in self.shift_factors(displacement):
             spectrum = spectrum * factor
         return spectrum
 
     def step(self, displacement: Sequence[float] | None = None) -> None:
         """One frame of attractor dynamics with path integration by ``displacement`` cells (any size)."""
-        spectrum = fft.rfftn(self.activity) * self.kernel_spectrum
+        spectrum = fft.rfftn(self.activity)
+        spectrum *= self.kernel_spectrum
         if displacement is not None and any(d != 0 for d in displacement):
-            spectrum *= self.shift_spectrum(displacement).astype(spectrum.dtype)
+            for factor in self.shift_factors(displacement):
+                spectrum *= factor
         activity = fft.irfftn(spectrum, s=self.shape).astype(self.dtype, copy=False)
         activity -= self.global_inhibition  # eq. 4
         np.maximum(activity, 0, out=activity)
@@ -182,15 +196,14 @@ class AttractorNetwork:
     def decode(self) -> np.ndarray:
         """Packet centre in fractional cells: circular mean of the activity in a window around the peak."""
         peak = self.peak()
-        radius = self.readout_radius
-        offsets = np.arange(-radius, radius + 1)
+        offsets = self._offsets
         indices = [(p + offsets) % n for p, n in zip(peak, self.shape, strict=True)]
-        window = self.activity[np.ix_(*indices)].astype(float)
+        window = self.activity[np.ix_(*indices)]
         centre = np.empty(self.dimensions)
         for axis, n in enumerate(self.shape):
-            others = tuple(a for a in range(self.dimensions) if a != axis)
-            marginal = window.sum(axis=others) if others else window
-            angles = 2 * math.pi * indices[axis] / n
-            angle = math.atan2(float(marginal @ np.sin(angles)), float(marginal @ np.cos(angles)))
+            marginal = window.sum(axis=self._other_axes[axis]) if self.dimensions > 1 else window
+            cosines, sines = self._unit_circle[axis]
+            index = indices[axis]
+            angle = math.atan2(float(marginal @ sines[index]), float(marginal @ cosines[index]))
             centre[axis] = (angle * n / (2 * math.pi)) % n
         return centre

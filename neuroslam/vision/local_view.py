@@ -2,8 +2,10 @@
 
 A view is a patch-normalised thumbnail (eq. 26). It is compared with every stored template by the mean
 absolute difference over the overlap of the two after a 2-D shift (rows ±``max_row_shift``, columns
-±``max_column_shift``; in panoramic mode the columns shift circularly over the whole strip). The best
-template within ``threshold`` becomes active; otherwise the view is stored as a new template.
+±``max_column_shift``; in panoramic mode the columns shift circularly over the whole strip). The shift
+for each template is the one with the least squared difference (all shifts of all candidates in two
+matrix products); the score is the mean absolute difference at that shift. The best template within
+``threshold`` becomes active; otherwise the view is stored as a new template.
 
 All templates live in one contiguous array. To keep the cost nearly flat as the map grows, a cheap,
 shift-tolerant pre-selection picks ``candidates`` templates first: each thumbnail row's column spectrum
@@ -70,6 +72,23 @@ class LocalViewCells:
         else:
             self._column_shifts = np.arange(-config.max_column_shift, config.max_column_shift + 1)
         self._row_shifts = np.arange(-config.max_row_shift, config.max_row_shift + 1)
+        # for every (row shift, column shift): which view pixel lies over each template pixel, and whether
+        # it exists (the overlap); built once, so a comparison is a few array operations
+        shift_rows, shift_columns = np.meshgrid(self._row_shifts, self._column_shifts, indexing="ij")
+        shift_rows, shift_columns = shift_rows.ravel(), shift_columns.ravel()
+        view_rows = np.arange(rows)[None, :, None] + shift_rows[:, None, None]
+        view_columns = np.arange(columns)[None, None, :] + shift_columns[:, None, None]
+        inside = (view_rows >= 0) & (view_rows < rows)
+        if panoramic:
+            view_columns = view_columns % columns
+        else:
+            inside = inside & (view_columns >= 0) & (view_columns < columns)
+        self._shift_columns = shift_columns
+        shape = (len(shift_rows), rows, columns)
+        flat_index = np.clip(view_rows, 0, rows - 1) * columns + np.clip(view_columns, 0, columns - 1)
+        self._gather = np.broadcast_to(flat_index, shape).copy()
+        self._overlap = np.broadcast_to(inside, shape).astype(np.float32)
+        self._overlap_size = self._overlap.sum(axis=(1, 2))
 
     @property
     def templates(self) -> np.ndarray:
@@ -92,26 +111,18 @@ class LocalViewCells:
 
         Returns (differences (K,), column shifts (K,)).
         """
-        templates = self._templates[indices]
-        rows, columns = thumbnail.shape
-        best = np.full(len(indices), np.inf, dtype=np.float32)
-        best_shift = np.zeros(len(indices), dtype=int)
-        for dr in self._row_shifts:
-            view_rows = slice(max(dr, 0), rows + min(dr, 0))
-            template_rows = slice(max(-dr, 0), rows + min(-dr, 0))
-            view = thumbnail[view_rows]
-            stored = templates[:, template_rows]
-            for dc in self._column_shifts:
-                if self.panoramic:
-                    difference = np.abs(stored - np.roll(view, -dc, axis=1)).mean(axis=(1, 2))
-                else:
-                    view_columns = slice(max(dc, 0), columns + min(dc, 0))
-                    template_columns = slice(max(-dc, 0), columns + min(-dc, 0))
-                    difference = np.abs(stored[:, :, template_columns] - view[:, view_columns]).mean(axis=(1, 2))
-                better = difference < best
-                best = np.where(better, difference, best)
-                best_shift = np.where(better, dc, best_shift)
-        return best, best_shift
+        templates = self._templates[indices].reshape(len(indices), -1)  # (K, P)
+        overlap = self._overlap.reshape(len(self._overlap), -1)  # (S, P)
+        shifted = thumbnail.ravel()[self._gather].reshape(len(overlap), -1) * overlap  # zero outside the overlap
+        # the shift: least squared difference over the overlap, for all templates and shifts in two
+        # matrix products (sum M T^2 - 2 sum T Q + sum Q^2)
+        squared = ((templates * templates) @ overlap.T - 2 * templates @ shifted.T
+                   + (shifted * shifted).sum(axis=1)[None]) / self._overlap_size[None]
+        best = squared.argmin(axis=1)
+        # the score at that shift: mean absolute difference over the overlap
+        absolute = np.abs(templates - shifted[best]) * overlap[best]
+        differences = absolute.sum(axis=1) / self._overlap_size[best]
+        return differences.astype(np.float32), self._shift_columns[best]
 
     def candidates(self, thumbnail: np.ndarray) -> np.ndarray:
         """Indices of the templates most similar in the shift-tolerant descriptor (at most ``candidates``)."""

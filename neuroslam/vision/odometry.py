@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -58,39 +59,42 @@ def best_shift(previous: np.ndarray, current: np.ndarray, max_shift: int, *, cir
     whole shift).
     """
     length = len(current)
-    shifts = np.arange(-max_shift, max_shift + 1)
-    differences = np.empty(len(shifts))
-    for i, s in enumerate(shifts):
-        if circular:
-            differences[i] = np.abs(np.roll(current, -s) - previous).mean()
-        else:
-            differences[i] = np.abs(current[max(s, 0): length + min(s, 0)] - previous[max(-s, 0): length + min(-s, 0)]
-                                    ).mean()
+    shifts, positions, valid = _shift_table(length, max_shift, circular)
+    # all shifts at once: |current[n + s] - previous[n]| where n + s falls inside the profile
+    differences = (np.abs(current[positions] - previous[None, :]) * valid).sum(axis=1) / valid.sum(axis=1)
     best = int(np.argmin(differences))
+    return _refine(shifts, differences, best), float(differences[best])
+
+
+@lru_cache(maxsize=32)
+def _shift_table(length: int, max_shift: int, circular: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Shifts, the index n + s of every comparison (clipped or wrapped) and whether it is inside."""
+    shifts = np.arange(-max_shift, max_shift + 1)
+    positions = np.arange(length)[None, :] + shifts[:, None]
+    if circular:
+        return shifts, positions % length, np.ones(positions.shape, dtype=np.float32)
+    valid = ((positions >= 0) & (positions < length)).astype(np.float32)
+    return shifts, np.clip(positions, 0, length - 1), valid
+
+
+def _refine(shifts: np.ndarray, differences: np.ndarray, best: int) -> float:
+    """The best shift refined by a parabola through its difference and its neighbours'."""
     shift = float(shifts[best])
     if 0 < best < len(shifts) - 1:
-        left, centre, right = differences[best - 1: best + 2]
+        left, centre, right = (float(v) for v in differences[best - 1: best + 2])
         curvature = left - 2 * centre + right
         if curvature > 0:
             shift += 0.5 * (left - right) / curvature
-    return shift, float(differences[best])
+    return shift
 
 
 def vertical_shift(previous: np.ndarray, current: np.ndarray, max_shift: int) -> float:
     """Rows ``current`` (2-D) is shifted down against ``previous``, minimising the mean absolute
     difference over the overlap (eq. 31), refined by a parabola through the three best shifts."""
-    rows = previous.shape[0]
-    shifts = np.arange(-max_shift, max_shift + 1)
-    differences = np.array([np.abs(current[max(s, 0): rows + min(s, 0)] - previous[max(-s, 0): rows + min(-s, 0)]
-                                   ).mean() for s in shifts])
-    best = int(np.argmin(differences))
-    shift = float(shifts[best])
-    if 0 < best < len(shifts) - 1:
-        left, centre, right = differences[best - 1: best + 2]
-        curvature = left - 2 * centre + right
-        if curvature > 0:
-            shift += 0.5 * (left - right) / curvature
-    return shift
+    shifts, positions, valid = _shift_table(previous.shape[0], max_shift, False)
+    row_differences = np.abs(current[positions] - previous[None]).mean(axis=2)  # (shifts, rows)
+    differences = (row_differences * valid).sum(axis=1) / valid.sum(axis=1)
+    return _refine(shifts, differences, int(np.argmin(differences)))
 
 
 class VisualOdometry:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from scipy import ndimage
 
@@ -39,12 +41,15 @@ def resize(image: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return _area_matrix(rows, out_rows) @ image @ _area_matrix(columns, out_columns).T
 
 
+@lru_cache(maxsize=64)
 def _area_matrix(size: int, out: int) -> np.ndarray:
-    """(out, size) matrix whose rows average the input cells covered by each output cell."""
+    """(out, size) matrix whose rows average the input cells covered by each output cell (cached)."""
     edges = np.linspace(0.0, size, out + 1)
     cells = np.arange(size)
     overlap = np.clip(np.minimum(edges[1:, None], cells + 1) - np.maximum(edges[:-1, None], cells), 0.0, None)
-    return (overlap / overlap.sum(axis=1, keepdims=True)).astype(np.float32)
+    matrix = (overlap / overlap.sum(axis=1, keepdims=True)).astype(np.float32)
+    matrix.flags.writeable = False
+    return matrix
 
 
 def patch_normalise(image: np.ndarray, patch_size: int, *, wrap_columns: bool = False) -> np.ndarray:

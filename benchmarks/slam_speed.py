@@ -1,0 +1,105 @@
+"""Speed of NeuroSLAM per frame: each component and the whole ``step()``, as the map grows.
+
+Run: ``python benchmarks/slam_speed.py [--frames N] [--templates 100 1000 10000]``. Frames are 160×120
+views cut from a smooth random panorama while it pans and tilts (so the visual odometry and the
+template matching do real work); before timing, the map is filled with the given number of templates and
+as many experiences in a chain. Prints the median milliseconds per frame on one core.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import statistics
+import time
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")  # one core, as the targets are stated
+
+import numpy as np
+from scipy import ndimage
+
+from neuroslam import NeuroSLAM, presets
+from neuroslam.vision.preprocessing import grey
+
+
+def frames(count: int, seed: int = 0) -> list[np.ndarray]:
+    rng = np.random.default_rng(seed)
+    strip = (ndimage.gaussian_filter(rng.random((400, 3000)), 2.0) * 255).astype(np.uint8)
+    return [np.repeat(strip[140 + int(8 * math.sin(k / 15)): 260 + int(8 * math.sin(k / 15)), 3 * k: 3 * k + 160, None],
+                      3, axis=2) for k in range(count)]
+
+
+def filled(templates: int, seed: int = 1) -> NeuroSLAM:
+    """A SLAM whose map already holds ``templates`` templates and as many experiences in a chain."""
+    slam = NeuroSLAM(presets.get("sim"))
+    rng = np.random.default_rng(seed)
+    rows, columns = slam.config.local_view.thumbnail
+    for k in range(templates):
+        thumbnail = rng.standard_normal((rows, columns)).astype(np.float32)
+        slam.local_view.add(thumbnail)
+        slam._learn_view(k, 0.0)
+        slam.experience_map.integrate(1.0, 0.01, 0.0)
+        slam.experience_map.update(k, rng.uniform(0, 36, 3), rng.uniform(0, 36, 2), float(k))
+    return slam
+
+
+def median_ms(samples: list[float]) -> float:
+    return 1000 * statistics.median(samples)
+
+
+def measure(templates: int, count: int) -> dict[str, float]:
+    images = frames(count + 1)
+    slam = filled(templates)
+    timings: dict[str, list[float]] = {name: [] for name in
+                                       ("grey", "visual odometry", "local view", "head direction", "grid cells",
+                                        "experience map", "step")}
+    greys = [grey(image) for image in images]
+    odometry = slam.visual_odometry
+    odometry.step(greys[0], 0.1)
+    for k in range(1, count + 1):
+        started = time.perf_counter()
+        grey(images[k])
+        timings["grey"].append(time.perf_counter() - started)
+        started = time.perf_counter()
+        odometry.step(greys[k], 0.1)
+        timings["visual odometry"].append(time.perf_counter() - started)
+        started = time.perf_counter()
+        thumbnail = slam.local_view.thumbnail(greys[k])
+        slam.local_view.compare(thumbnail, slam.local_view.candidates(thumbnail))
+        timings["local view"].append(time.perf_counter() - started)
+        started = time.perf_counter()
+        slam.head_direction.step(0.01, 0.0)
+        slam.head_direction.decode()
+        timings["head direction"].append(time.perf_counter() - started)
+        started = time.perf_counter()
+        slam.grid_cells.step((0.1, 0.0, 0.0))
+        slam.grid_cells.decode()
+        timings["grid cells"].append(time.perf_counter() - started)
+        started = time.perf_counter()
+        slam.experience_map.integrate(0.1, 0.0, 0.0)
+        slam.experience_map.update(k % templates, slam.grid_cells.decode(), slam.head_direction.decode(), 0.1 * k)
+        timings["experience map"].append(time.perf_counter() - started)
+    slam = filled(templates)
+    for k in range(count + 1):
+        started = time.perf_counter()
+        slam.step(images[k], 0.1 * (k + 1))
+        timings["step"].append(time.perf_counter() - started)
+    return {name: median_ms(values[1:]) for name, values in timings.items()}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--frames", type=int, default=200, help="frames timed per map size (default: 200)")
+    parser.add_argument("--templates", type=int, nargs="+", default=[100, 1000, 10000])
+    args = parser.parse_args()
+    results = {n: measure(n, args.frames) for n in args.templates}
+    names = list(next(iter(results.values())))
+    print("median ms per frame, 160x120, preset 'sim', one core")
+    print(f"{'component':<16}" + "".join(f"{n:>12,d} templates"[-22:] for n in args.templates))
+    for name in names:
+        print(f"{name:<16}" + "".join(f"{results[n][name]:>22.3f}" for n in args.templates))
+
+
+if __name__ == "__main__":
+    main()

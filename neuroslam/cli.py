@@ -1,7 +1,7 @@
 """The ``neuroslam`` command line.
 
 Commands:
-    drive   drive a route in a simulated world and write its trajectories (SLAM joins in a later release)
+    drive   drive a route in a simulated world with NeuroSLAM in the loop; write trajectories and a summary
     worlds  list the built-in worlds with their levels and routes
 """
 
@@ -47,9 +47,11 @@ def _parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     drive = commands.add_parser(
-        "drive", help="drive a route in a simulated world and record its trajectories",
-        description="Drive the robot along a route under MuJoCo physics with its camera rendering, and write "
-        "groundtruth.tum, odometry.tum (wheel odometry) and summary.json into the output folder.",
+        "drive", help="drive a route in a simulated world with NeuroSLAM in the loop",
+        description="Drive the robot along a route under MuJoCo physics, run NeuroSLAM on its camera frames, and "
+        "write into the output folder: groundtruth.tum, slam.tum (the SLAM estimate per frame), odometry.tum "
+        "(the self-motion integrated without the map), wheel_odometry.tum, experiences.tum (the final map) "
+        "and summary.json (map size, loop closures, trajectory errors after Sim(3) alignment, timings).",
     )
     drive.add_argument("world", nargs="?", default="carpark",
                        help="built-in world name, gen:SEED for a generated world, or an MJCF file (default: carpark)")
@@ -63,6 +65,11 @@ def _parser() -> argparse.ArgumentParser:
     drive.add_argument("--seed", type=int, default=0, help="seed of the sensor noise (default: 0)")
     drive.add_argument("--quality", choices=["fast", "high"], default="fast", help="visual profile (default: fast)")
     drive.add_argument("--max-frames", type=_positive_int, help="stop after this many frames")
+    drive.add_argument("--preset", default="sim", help="NeuroSLAM parameter preset (default: sim)")
+    drive.add_argument("--config", type=Path, help="TOML or JSON file of NeuroSLAM settings over the preset")
+    drive.add_argument("--odometry", choices=["visual", "wheel"], default="visual",
+                       help="self-motion from the camera (visual odometry) or from the wheel encoders with the "
+                       "camera's height rate (default: visual)")
     drive.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
 
     commands.add_parser("worlds", help="list the built-in worlds with their levels and routes",
@@ -75,7 +82,18 @@ def _drive(args: argparse.Namespace) -> int:
 
     import sim  # the simulator is only needed here; importing it selects headless rendering
 
+    from . import presets
+    from .config import load_config
+    from .evaluation import ate_rmse
+    from .slam import NeuroSLAM
     from .tum import write_tum, yaw_quaternion
+    from .vision.odometry import SelfMotion
+    from .vision.preprocessing import grey
+
+    config = presets.get(args.preset)
+    if args.config is not None:
+        config = load_config(args.config, base=config)
+    slam = NeuroSLAM(config)
 
     route_name, routes_file = args.route, None
     if args.route and args.route.endswith(".json"):
@@ -87,21 +105,41 @@ def _drive(args: argparse.Namespace) -> int:
                               camera=camera, quality=args.quality)
     out = args.out or Path("runs") / f"drive-{world.name.replace(':', '_')}-{time.strftime('%Y%m%d-%H%M%S')}"
     out.mkdir(parents=True, exist_ok=True)
-    times, truths, odometry = [], [], []
+    times, truths, odometry, estimates, self_motion = [], [], [], [], []
+    slam_seconds = 0.0
+    previous_time = None
     started = time.perf_counter()
     with tqdm(total=int(drive.total_distance), unit="m", desc=f"{world.name}/{drive.route.name}") as bar:
         for frame in drive:
+            slam_started = time.perf_counter()
+            motion = None
+            if args.odometry == "wheel":  # encoders for speed and turn; the camera for the height rate
+                dt = 0.0 if previous_time is None else frame.time - previous_time
+                climb = slam.visual_odometry.step(grey(frame.image), dt).climb_rate
+                motion = SelfMotion(frame.odometry.forward_speed, frame.odometry.yaw_rate, climb)
+            estimate = slam.step(frame.image, frame.time, odometry=motion)
+            slam_seconds += time.perf_counter() - slam_started
+            previous_time = frame.time
             times.append(frame.time)
             truths.append(frame.ground_truth)
             odometry.append(frame.odometry)
+            estimates.append(estimate.pose)
+            self_motion.append(slam.odometry_pose)
             bar.update(min(int(frame.progress), bar.total) - bar.n)
     elapsed = time.perf_counter() - started
     times = np.array(times)
     positions = np.array([t.position for t in truths])
     write_tum(out / "groundtruth.tum", times, positions, np.array([t.quaternion for t in truths]))
-    write_tum(out / "odometry.tum", times, np.array([[o.x, o.y, 0.0] for o in odometry]),
+    write_tum(out / "wheel_odometry.tum", times, np.array([[o.x, o.y, 0.0] for o in odometry]),
               yaw_quaternion(np.array([o.yaw for o in odometry])))
+    estimates, self_motion = np.array(estimates), np.array(self_motion)
+    write_tum(out / "slam.tum", times, estimates[:, :3], yaw_quaternion(estimates[:, 3]))
+    write_tum(out / "odometry.tum", times, self_motion[:, :3], yaw_quaternion(self_motion[:, 3]))
+    experience_map = slam.experience_map
+    write_tum(out / "experiences.tum", experience_map.creation_times, experience_map.poses[:, :3],
+              yaw_quaternion(experience_map.poses[:, 3]))
     frames = len(times)
+    enough = frames >= 3  # the alignment needs three positions
     summary = {
         "world": world.name,
         "route": drive.route.name,
@@ -111,7 +149,16 @@ def _drive(args: argparse.Namespace) -> int:
         "levels": list(world.levels),
         "levels_visited": sorted({int(t.level) for t in truths}),
         "height_range_m": [float(positions[:, 2].min()), float(positions[:, 2].max())],
+        "odometry": args.odometry,
+        "templates": slam.local_view.count,
+        "experiences": experience_map.size,
+        "loop_closures": experience_map.loop_closures,
+        "ate_rmse_m": {
+            "slam": ate_rmse(estimates[:, :3], positions) if enough else None,
+            "odometry": ate_rmse(self_motion[:, :3], positions) if enough else None,
+        },
         "ms_per_frame": {
+            "slam": 1000 * slam_seconds / frames,
             "physics": 1000 * drive.timings["physics"] / frames,
             "render": 1000 * drive.timings["render"] / frames,
             "total": 1000 * elapsed / frames,
@@ -125,7 +172,12 @@ def _drive(args: argparse.Namespace) -> int:
         ("distance", f"{summary['distance_m']:.1f} m"),
         ("levels visited", f"{summary['levels_visited']} of {list(range(len(world.levels)))}"),
         ("height range", f"{summary['height_range_m'][0]:.2f} .. {summary['height_range_m'][1]:.2f} m"),
-        ("ms per frame", "physics {physics:.2f}, render {render:.2f}, total {total:.2f}".format(
+        ("map", f"{summary['templates']} templates, {summary['experiences']} experiences, "
+                f"{summary['loop_closures']} loop closures"),
+        ("ATE (Sim(3))", "SLAM {slam}, {odometry} odometry {odometry_ate}".format(
+            slam=_metres(summary["ate_rmse_m"]["slam"]), odometry=args.odometry,
+            odometry_ate=_metres(summary["ate_rmse_m"]["odometry"]))),
+        ("ms per frame", "SLAM {slam:.2f}, physics {physics:.2f}, render {render:.2f}, total {total:.2f}".format(
             **summary["ms_per_frame"])),
         ("output", str(out)),
     ]
@@ -133,6 +185,10 @@ def _drive(args: argparse.Namespace) -> int:
     for name, value in rows:
         print(f"{name:<{width}}  {value}")
     return 0
+
+
+def _metres(value: float | None) -> str:
+    return "n/a" if value is None else f"{value:.2f} m"
 
 
 def _worlds(_: argparse.Namespace) -> int:
@@ -165,8 +221,11 @@ def main(argv: list[str] | None = None) -> int:
 
 def _is_user_error(error: Exception) -> bool:
     """True for errors caused by the user's input (typed library errors, unreadable files), not bugs."""
+    from .errors import NeuroSLAMError
+
     simulator = sys.modules.get("sim")
-    return isinstance(error, OSError) or (simulator is not None and isinstance(error, simulator.SimError))
+    return isinstance(error, (OSError, NeuroSLAMError)) or (
+        simulator is not None and isinstance(error, simulator.SimError))
 
 
 if __name__ == "__main__":

@@ -23,7 +23,7 @@ from .config import ExperienceMapConfig
 
 __all__ = ["ExperienceMap", "MapUpdate"]
 
-SETTLED = 1e-7  # m or rad: relaxation stops once no experience moves more than this in a pass
+SETTLED = 1e-4  # m or rad: relaxation stops once no experience moves more than this in a pass
 
 
 def _wrap(angle: np.ndarray | float) -> np.ndarray | float:
@@ -70,14 +70,17 @@ class ExperienceMap:
         config: map parameters (Table 8).
         grid_size: cells of the grid-cell network (x, y, z), for wrapped code distances.
         direction_size: cells of the head-direction network (yaw, height).
+        grid_cell_size: metres per grid cell (x, y, z), to turn a code difference into an offset.
     """
 
     def __init__(self, config: ExperienceMapConfig = ExperienceMapConfig(), *,
-                 grid_size: tuple[int, int, int] = (36, 36, 36), direction_size: tuple[int, int] = (36, 36)):
+                 grid_size: tuple[int, int, int] = (36, 36, 36), direction_size: tuple[int, int] = (36, 36),
+                 grid_cell_size: tuple[float, float, float] = (1.0, 1.0, 1.0)):
         config.validate("experience_map")
         self.config = config
         self.grid_size = grid_size
         self.direction_size = direction_size
+        self.grid_cell_size = np.asarray(grid_cell_size, dtype=float)
         self._poses = _Growing(4, np.float64)
         self._grid_codes = _Growing(3, np.float64)
         self._direction_codes = _Growing(2, np.float64)
@@ -147,6 +150,26 @@ class ExperienceMap:
             return self.relative.copy()
         return self._compose(self.poses[self.current], self.relative)
 
+    def _offset(self, experience: int, grid_code: np.ndarray, direction_code: np.ndarray) -> np.ndarray:
+        """Where the robot is relative to ``experience``, from the difference of their codes: the grid-cell
+        difference (wrapped, in metres) rotated into the experience's frame, and the yaw difference."""
+        size = np.asarray(self.grid_size, dtype=float)
+        difference = (np.asarray(grid_code) - self.grid_codes[experience] + size / 2) % size - size / 2
+        metres = difference * self.grid_cell_size
+        yaw = self.poses[experience, 3]
+        c, s = math.cos(yaw), math.sin(yaw)
+        yaw_cells = self.direction_size[0]
+        turn = ((direction_code[0] - self.direction_codes[experience, 0] + yaw_cells / 2) % yaw_cells - yaw_cells / 2)
+        return np.array([c * metres[0] + s * metres[1], -s * metres[0] + c * metres[1], metres[2],
+                         turn * 2 * math.pi / yaw_cells])
+
+    @staticmethod
+    def _invert(relative: np.ndarray) -> np.ndarray:
+        """The relative pose that undoes ``relative`` (x, y, z, yaw)."""
+        x, y, z, yaw = relative
+        c, s = math.cos(yaw), math.sin(yaw)
+        return np.array([-(c * x + s * y), -(-s * x + c * y), -z, -yaw])
+
     @staticmethod
     def _compose(pose: np.ndarray, relative: np.ndarray) -> np.ndarray:
         x, y, z, yaw = pose
@@ -203,13 +226,21 @@ class ExperienceMap:
             self._relax(self.config.idle_passes)
             return MapUpdate(self.current, False, False)
         previous = self.current
+        offset = self._offset(best, grid_code, direction_code)
         closes_loop = (previous, best) not in self._linked and (best, previous) not in self._linked
         if closes_loop:
+            # the robot is at previous ⊕ odometry and at best ⊕ offset, so best = previous ⊕ odometry ⊖ offset
+            self.relative = self._compose(self.relative, self._invert(offset))
+            # the loop's error: where the odometry puts the re-entered experience against where it is
+            expected = self._compose(self.poses[previous], self.relative)
+            error = expected - self.poses[best]
+            error[3] = float(_wrap(error[3]))
             self._link(previous, best, time)
             self.loop_closures += 1
-            self._settled = False
+            if np.abs(error).max() >= SETTLED:
+                self._settled = False
         self.current = best
-        self.relative[:] = 0
+        self.relative = offset
         self._relax(self.config.relaxation_passes if closes_loop else self.config.idle_passes)
         return MapUpdate(best, False, closes_loop)
 

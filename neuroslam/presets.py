@@ -26,7 +26,14 @@ from .errors import InvalidParameterError
 __all__ = ["get", "names"]
 
 
+def _paper_grid(global_inhibition: float, view_injection: float) -> GridCellConfig:
+    """Table 5: 36³ cells of 1 m."""
+    return GridCellConfig(size=(36, 36, 36), cell_size=(1.0, 1.0, 1.0), global_inhibition=global_inhibition,
+                          view_injection=view_injection)
+
+
 def _sim() -> Config:
+    """The testbed's camera (160×120, 80°): the defaults of :class:`~neuroslam.config.Config`."""
     return Config()
 
 
@@ -37,7 +44,7 @@ def _synper() -> Config:
         horizontal_fov=math.radians(81.5), vertical_fov=math.radians(70.0),
         odometry=VisualOdometryConfig(rotation_region=crop, translation_region=crop,
                                       height_region=Region(10 / 120, 110 / 120, 10 / 160, 150 / 160)),
-        grid_cells=GridCellConfig(global_inhibition=0.0002, view_injection=0.1),
+        grid_cells=_paper_grid(0.0002, 0.1),
         head_direction=HeadDirectionConfig(inhibition_variance=3.0, global_inhibition=0.0002, view_injection=0.001),
         experience_map=ExperienceMapConfig(correction=0.5, relaxation_passes=5),
     )
@@ -51,7 +58,7 @@ def _synpan() -> Config:
         odometry=VisualOdometryConfig(rotation_region=Region(50 / 200, 150 / 200, 0.0, 1.0), translation_region=crop,
                                       height_region=crop),
         local_view=LocalViewConfig(thumbnail=(20, 48), max_column_shift=23),
-        grid_cells=GridCellConfig(global_inhibition=0.00025, view_injection=0.1),
+        grid_cells=_paper_grid(0.00025, 0.1),
         head_direction=HeadDirectionConfig(inhibition_variance=3.1, global_inhibition=0.0003, view_injection=0.01),
         experience_map=ExperienceMapConfig(correction=0.005, relaxation_passes=1),
     )
@@ -62,7 +69,7 @@ def _carpark() -> Config:
     return Config(
         horizontal_fov=math.radians(75.0), vertical_fov=math.radians(60.0),
         local_view=LocalViewConfig(thumbnail=(27, 48)),
-        grid_cells=GridCellConfig(global_inhibition=0.0002, view_injection=0.1),
+        grid_cells=_paper_grid(0.0002, 0.1),
         head_direction=HeadDirectionConfig(inhibition_variance=3.1, global_inhibition=0.0002, view_injection=0.1),
         experience_map=ExperienceMapConfig(correction=0.5, relaxation_passes=5),
     )

@@ -88,7 +88,7 @@ class NeuroSLAM:
         self.grid_cells = GridCells(c.grid_cells)
         self.head_direction = HeadDirectionCells(c.head_direction)
         self.experience_map = ExperienceMap(c.experience_map, grid_size=c.grid_cells.size,
-                                            direction_size=c.head_direction.size)
+                                            direction_size=c.head_direction.size, grid_cell_size=c.grid_cells.cell_size)
         self._view_grid = np.zeros((64, 3))
         self._view_direction = np.zeros((64, 2))
         self._view_decay = np.zeros((64, 2))  # (decay, time of last activation)

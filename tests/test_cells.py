@@ -51,12 +51,14 @@ def test_grid_packet_integrates_many_frames_across_the_wrap_around():
     assert wrapped_error(cells.decode(), expected, cells.config.size) < 0.05
 
 
-def test_slow_motion_is_not_pinned_to_the_lattice():
-    cells = GridCells()
+@pytest.mark.parametrize("config", [GridCellConfig(), GridCellConfig(size=(36, 36, 36), cell_size=(1.0, 1.0, 1.0))])
+def test_slow_motion_is_not_pinned_to_the_lattice(config):
+    """10 cm per frame (1 m/s at 10 Hz) is a small fraction of a cell; the packet must still move exactly."""
+    cells = GridCells(config)
     start = cells.decode()
     for _ in range(70):
-        cells.step((1 / 7, 0.0, 0.0))
-    assert wrapped_error(cells.decode(), start + [10.0, 0, 0], cells.config.size) < 0.05
+        cells.step((0.1, 0.0, 0.0))
+    assert wrapped_error(cells.decode(), start + [7.0 / config.cell_size[0], 0, 0], cells.config.size) < 0.05
 
 
 def test_head_direction_packet_follows_yaw_and_height():
@@ -71,7 +73,7 @@ def test_head_direction_packet_follows_yaw_and_height():
 
 
 def test_linear_shift_of_the_paper_is_available_and_moves_whole_cells_exactly():
-    cells = GridCells(GridCellConfig(shift="linear"))
+    cells = GridCells(GridCellConfig(shift="linear", size=(36, 36, 36), cell_size=(1.0, 1.0, 1.0)))
     start = cells.decode()
     cells.step((3.0, -2.0, 5.0))
     assert wrapped_error(cells.decode(), start + [3, -2, 5], cells.config.size) < 0.01

@@ -30,17 +30,24 @@ def test_worlds_lists_levels_and_routes(capsys):
     assert "carpark" in out and "levels at 0, 3 m" in out and "main (" in out and "gen:SEED" in out
 
 
-def test_short_drive_writes_trajectories_and_summary(tmp_path, capsys):
-    assert main(["drive", "gen:2", "--max-frames", "30", "--out", str(tmp_path), "--seed", "1"]) == 0
+@pytest.mark.parametrize("odometry", ["visual", "wheel"])
+def test_short_drive_with_slam_writes_trajectories_and_summary(tmp_path, capsys, odometry):
+    assert main(["drive", "gen:2", "--max-frames", "30", "--out", str(tmp_path), "--seed", "1",
+                 "--odometry", odometry]) == 0
     times, _positions, quaternions = read_tum(tmp_path / "groundtruth.tum")
     assert len(times) == 30 and times[1] == pytest.approx(0.1)
     np.testing.assert_allclose(np.linalg.norm(quaternions, axis=1), 1.0, atol=1e-6)
-    odometry_times, _odometry_positions, _ = read_tum(tmp_path / "odometry.tum")
-    np.testing.assert_array_equal(odometry_times, times)
+    for name in ("odometry.tum", "wheel_odometry.tum", "slam.tum"):
+        other_times, other_positions, _ = read_tum(tmp_path / name)
+        np.testing.assert_array_equal(other_times, times)
+        assert np.all(np.isfinite(other_positions))
+    experience_times, _, _ = read_tum(tmp_path / "experiences.tum")
     summary = json.loads((tmp_path / "summary.json").read_text())
-    assert summary["frames"] == 30 and summary["world"] == "gen:2"
+    assert summary["frames"] == 30 and summary["world"] == "gen:2" and summary["odometry"] == odometry
     assert summary["distance_m"] > 0.5
-    assert set(summary["ms_per_frame"]) == {"physics", "render", "total"}
+    assert summary["experiences"] == len(experience_times) >= 1 and summary["templates"] >= 1
+    assert set(summary["ate_rmse_m"]) == {"slam", "odometry"} and summary["ate_rmse_m"]["slam"] >= 0
+    assert set(summary["ms_per_frame"]) == {"slam", "physics", "render", "total"}
     assert "levels visited" in capsys.readouterr().out
 
 
@@ -49,6 +56,7 @@ def test_short_drive_writes_trajectories_and_summary(tmp_path, capsys):
     (["drive", "gen:x"], "integer seed"),
     (["drive", "carpark", "--route", "nope"], "route='nope'"),
     (["drive", "carpark", "--laps", "0"], "must be at least 1"),
+    (["drive", "carpark", "--preset", "nope"], "unknown preset"),
 ])
 def test_bad_input_gives_one_line_and_exit_code_2(args, text):
     result = run(*args)

@@ -40,7 +40,7 @@ def test_best_shift_finds_sub_pixel_shifts():
 @pytest.mark.parametrize("columns", [3, -4])
 def test_yaw_rate_from_a_panned_panorama(columns):
     fov = math.radians(80)
-    odometry = VisualOdometry(VisualOdometryConfig(), horizontal_fov=fov, vertical_fov=math.radians(64))
+    odometry = VisualOdometry(VisualOdometryConfig(yaw_scale=1.0), horizontal_fov=fov, vertical_fov=math.radians(64))
     rates = [odometry.step(frame, 0.1).yaw_rate for frame in frames(columns, 0, 12)][1:]
     # content moving right (positive columns) means the camera turned left: counter-clockwise, positive
     expected = columns * fov / WIDTH / 0.1
@@ -53,7 +53,7 @@ def test_height_rate_from_a_pitching_view(rows):
     """The view tilts by ``rows`` per frame (content moving down: nose up); the climb rate must be the
     measured speed times the sine of the integrated pitch."""
     vertical_fov = math.radians(64)
-    config = VisualOdometryConfig(pitch_leak=0.0, pitch_flow_bias=0.0, max_climb_rate=10.0,
+    config = VisualOdometryConfig(pitch_leak=0.0, pitch_flow_bias=0.0, climb_scale=1.0, max_climb_rate=10.0,
                                   height_region=Region(0.1, 0.9, 0.1, 0.9), max_row_shift=0.25)
     odometry = VisualOdometry(config, horizontal_fov=math.radians(80), vertical_fov=vertical_fov)
     angle_per_row = 2 * math.tan(vertical_fov / 2) / HEIGHT

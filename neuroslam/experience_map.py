@@ -92,7 +92,6 @@ class ExperienceMap:
         self._degree = _Growing(0, np.int64)
         self._linked: set[tuple[int, int]] = set()
         self._by_template: dict[int, list[int]] = {}
-        self._slots: tuple[np.ndarray, np.ndarray] | None = None
         self._settled = True
         self.current = -1
         self.relative = np.zeros(4)  # odometric pose of the robot in the current experience's frame
@@ -278,33 +277,30 @@ class ExperienceMap:
         if passes == 0 or self._links.count == 0 or self._settled:
             return
         sources, targets = self.links[:, 0], self.links[:, 1]
-        distance, heading, facing, height = self.link_poses.T
+        distance, heading, facing, height = (np.ascontiguousarray(column) for column in self.link_poses.T)
         n = self.size
-        if self._slots is None or len(self._slots[0]) != 4 * len(sources):
-            # every link adds its error to its target's four (experience, axis) slots and subtracts it from
-            # its source's; rebuilt only when links are added
-            axes = np.arange(4)[None]
-            self._slots = ((targets[:, None] * 4 + axes).ravel(), (sources[:, None] * 4 + axes).ravel())
-        target_slots, source_slots = self._slots
-        scale = (self.config.correction / np.maximum(self._degree.view, 1) / 2)[:, None]
-        poses = self._poses.data
-        error = np.empty((len(sources), 4))
+        scale = self.config.correction / np.maximum(self._degree.view, 1) / 2
+        # one contiguous array per axis: gathers and scatters over 1-D arrays are several times faster
+        x, y, z, yaw = (np.ascontiguousarray(self._poses.data[:n, axis]) for axis in range(4))
+        settled = False
         for _ in range(passes):
-            source_poses = poses[sources]
-            direction = source_poses[:, 3] + heading
-            np.cos(direction, out=error[:, 0])
-            np.sin(direction, out=error[:, 1])
-            error[:, :2] *= distance[:, None]
-            error[:, 2] = height
-            error[:, 3] = facing
-            error += source_poses
-            error -= poses[targets]
-            error[:, 3] = _wrap(error[:, 3])
-            flat = error.ravel()
-            correction = np.bincount(target_slots, flat, 4 * n) - np.bincount(source_slots, flat, 4 * n)
-            step = correction.reshape(n, 4) * scale
-            poses[:n] += step
-            poses[:n, 3] = _wrap(poses[:n, 3])
-            if np.abs(step).max() < SETTLED:
-                self._settled = True
-                return
+            source_yaw = yaw[sources]
+            direction = source_yaw + heading
+            errors = (
+                x[sources] + distance * np.cos(direction) - x[targets],
+                y[sources] + distance * np.sin(direction) - y[targets],
+                z[sources] + height - z[targets],
+                _wrap(source_yaw + facing - yaw[targets]),
+            )
+            largest = 0.0
+            for values, error in zip((x, y, z, yaw), errors, strict=True):
+                step = (np.bincount(targets, error, n) - np.bincount(sources, error, n)) * scale
+                values += step
+                largest = max(largest, float(np.abs(step).max()))
+            yaw[:] = _wrap(yaw)
+            if largest < SETTLED:
+                settled = True
+                break
+        for axis, values in enumerate((x, y, z, yaw)):
+            self._poses.data[:n, axis] = values
+        self._settled = settled

@@ -12,8 +12,8 @@ How the ``sim`` defaults were chosen (two laps of the testbed's car park, measur
   accuracy, 2.28 against 2.27 m, at 1.8 times the cells.)
 - view calibration 0.02 (grid) and 0.005 (head direction), template threshold 0.3, experience threshold
   1.5: views in the testbed repeat (lanes, pillars), and stronger injection dragged the packets to
-  look-alike places; with these, and wheel odometry as input (height rate from the camera), 158 loop
-  closures and a SLAM trajectory error of 2.3 m against the odometry's 4.2 m.
+  look-alike places; with these, and wheel odometry as input (height rate from the camera), 146 loop
+  closures and a SLAM trajectory error of 2.27 m against the odometry's 4.23 m.
 - visual odometry gains: speed, yaw and climb fitted to the true motion of the same drive; the height
   pipeline (pitch bias per metre, leak, climb gain) by the least height error over 200 s of it (1.2 m).
 """
@@ -66,6 +66,20 @@ def _cells(section: str, name: str, value: object, dimensions: int) -> None:
     ok = (isinstance(value, tuple) and len(value) == dimensions
           and all(isinstance(v, int) and not isinstance(v, bool) and 4 <= v <= 512 for v in value))
     _require(f"{section}.{name}", value, ok, f"must be {dimensions} integers from 4 to 512 (cells)")
+
+
+def _validate_network(path: str, section: Any) -> None:
+    """The attractor-network fields the grid-cell and head-direction sections share."""
+    size = min(section.size)
+    _odd_width(path, "excitation_width", section.excitation_width, size)
+    _odd_width(path, "inhibition_width", section.inhibition_width, size)
+    _positive(path, excitation_variance=section.excitation_variance, inhibition_variance=section.inhibition_variance)
+    _non_negative(path, global_inhibition=section.global_inhibition, view_injection=section.view_injection)
+    _require(f"{path}.inhibition_scale", section.inhibition_scale, _number(section.inhibition_scale)
+             and 0 <= section.inhibition_scale < 1, "must be in [0, 1)")
+    _require(f"{path}.shift", section.shift, section.shift in ("fourier", "linear"), "must be 'fourier' or 'linear'")
+    _require(f"{path}.readout_radius", section.readout_radius, isinstance(section.readout_radius, int)
+             and 1 <= section.readout_radius < size // 2, "must be an integer from 1 to size/2 - 1")
 
 
 @dataclass(frozen=True)
@@ -216,15 +230,7 @@ class GridCellConfig:
         ok = isinstance(self.cell_size, tuple) and len(self.cell_size) == 3 and all(
             _number(v) and v > 0 for v in self.cell_size)
         _require(f"{path}.cell_size", self.cell_size, ok, "must be three positive lengths in metres")
-        _odd_width(path, "excitation_width", self.excitation_width, min(self.size))
-        _odd_width(path, "inhibition_width", self.inhibition_width, min(self.size))
-        _positive(path, excitation_variance=self.excitation_variance, inhibition_variance=self.inhibition_variance)
-        _non_negative(path, global_inhibition=self.global_inhibition, view_injection=self.view_injection)
-        _require(f"{path}.inhibition_scale", self.inhibition_scale, _number(self.inhibition_scale)
-                 and 0 <= self.inhibition_scale < 1, "must be in [0, 1)")
-        _require(f"{path}.shift", self.shift, self.shift in ("fourier", "linear"), "must be 'fourier' or 'linear'")
-        _require(f"{path}.readout_radius", self.readout_radius, isinstance(self.readout_radius, int)
-                 and 1 <= self.readout_radius < min(self.size) // 2, "must be an integer from 1 to size/2 - 1")
+        _validate_network(path, self)
 
 
 @dataclass(frozen=True)
@@ -260,16 +266,8 @@ class HeadDirectionConfig:
 
     def validate(self, path: str = "head_direction") -> None:
         _cells(path, "size", self.size, 2)
-        _positive(path, height_cell_size=self.height_cell_size, excitation_variance=self.excitation_variance,
-                  inhibition_variance=self.inhibition_variance)
-        _odd_width(path, "excitation_width", self.excitation_width, min(self.size))
-        _odd_width(path, "inhibition_width", self.inhibition_width, min(self.size))
-        _non_negative(path, global_inhibition=self.global_inhibition, view_injection=self.view_injection)
-        _require(f"{path}.inhibition_scale", self.inhibition_scale, _number(self.inhibition_scale)
-                 and 0 <= self.inhibition_scale < 1, "must be in [0, 1)")
-        _require(f"{path}.shift", self.shift, self.shift in ("fourier", "linear"), "must be 'fourier' or 'linear'")
-        _require(f"{path}.readout_radius", self.readout_radius, isinstance(self.readout_radius, int)
-                 and 1 <= self.readout_radius < min(self.size) // 2, "must be an integer from 1 to size/2 - 1")
+        _positive(path, height_cell_size=self.height_cell_size)
+        _validate_network(path, self)
 
 
 @dataclass(frozen=True)

@@ -128,6 +128,17 @@ class AttractorNetwork:
         self.activity = np.zeros(self.shape, dtype=dtype)
         self.reset(start if start is not None else [0.0] * self.dimensions)
 
+    @classmethod
+    def from_config(cls, config) -> AttractorNetwork:
+        """A network from a :class:`~neuroslam.config.GridCellConfig` or
+        :class:`~neuroslam.config.HeadDirectionConfig` (they share the network's fields)."""
+        return cls(
+            config.size, excitation_width=config.excitation_width, excitation_variance=config.excitation_variance,
+            inhibition_width=config.inhibition_width, inhibition_variance=config.inhibition_variance,
+            inhibition_scale=config.inhibition_scale, global_inhibition=config.global_inhibition,
+            readout_radius=config.readout_radius, shift=config.shift,
+        )
+
     def reset(self, cell: Sequence[float], *, settle: int = 30) -> None:
         """Put a single packet at ``cell`` (fractional cells) and let it settle to its resting shape."""
         self.activity[...] = 0

@@ -23,12 +23,7 @@ class HeadDirectionCells:
         config.validate("head_direction")
         self.config = config
         self.yaw_cell_size = config.yaw_cell_size
-        self.network = AttractorNetwork(
-            config.size, excitation_width=config.excitation_width, excitation_variance=config.excitation_variance,
-            inhibition_width=config.inhibition_width, inhibition_variance=config.inhibition_variance,
-            inhibition_scale=config.inhibition_scale, global_inhibition=config.global_inhibition,
-            readout_radius=config.readout_radius, shift=config.shift,
-        )
+        self.network = AttractorNetwork.from_config(config)
 
     @property
     def activity(self) -> np.ndarray:

@@ -1,7 +1,7 @@
 """The ``neuroslam`` command line.
 
 Commands:
-    drive   drive a route in a simulated world with NeuroSLAM in the loop; write trajectories and a summary
+    drive   drive a route in a simulated world with NeuroSLAM in the loop; write trajectories and metrics
     worlds  list the built-in worlds with their levels and routes
 """
 
@@ -51,7 +51,8 @@ def _parser() -> argparse.ArgumentParser:
         description="Drive the robot along a route under MuJoCo physics, run NeuroSLAM on its camera frames, and "
         "write into the output folder: groundtruth.tum, slam.tum (the SLAM estimate per frame), odometry.tum "
         "(the self-motion integrated without the map), wheel_odometry.tum, experiences.tum (the final map) "
-        "and summary.json (map size, loop closures, trajectory errors after Sim(3) alignment, timings).",
+        "and metrics.json (map size, loop closures and how many were false, trajectory and map errors after "
+        "Sim(3) and SE(3) alignment, relative errors over 10 m, floor-level accuracy, timings).",
     )
     drive.add_argument("world", nargs="?", default="carpark",
                        help="built-in world name, gen:SEED for a generated world, or an MJCF file (default: carpark)")
@@ -84,7 +85,7 @@ def _drive(args: argparse.Namespace) -> int:
 
     from . import presets
     from .config import load_config
-    from .evaluation import ate_rmse
+    from .evaluation import run_metrics
     from .slam import NeuroSLAM
     from .tum import write_tum, yaw_quaternion
     from .vision.odometry import SelfMotion
@@ -105,7 +106,7 @@ def _drive(args: argparse.Namespace) -> int:
                               camera=camera, quality=args.quality)
     out = args.out or Path("runs") / f"drive-{world.name.replace(':', '_')}-{time.strftime('%Y%m%d-%H%M%S')}"
     out.mkdir(parents=True, exist_ok=True)
-    times, truths, odometry, estimates, self_motion = [], [], [], [], []
+    times, truths, odometry, estimates, self_motion, closures = [], [], [], [], [], []
     slam_seconds = 0.0
     previous_time = None
     started = time.perf_counter()
@@ -124,6 +125,8 @@ def _drive(args: argparse.Namespace) -> int:
             truths.append(frame.ground_truth)
             odometry.append(frame.odometry)
             estimates.append(estimate.pose)
+            if estimate.loop_closure:
+                closures.append((len(times) - 1, estimate.experience_id))
             self_motion.append(slam.odometry_pose)
             bar.update(min(int(frame.progress), bar.total) - bar.n)
     elapsed = time.perf_counter() - started
@@ -139,7 +142,14 @@ def _drive(args: argparse.Namespace) -> int:
     write_tum(out / "experiences.tum", experience_map.creation_times, experience_map.poses[:, :3],
               yaw_quaternion(experience_map.poses[:, 3]))
     frames = len(times)
-    enough = frames >= 3  # the alignment needs three positions
+    true_levels = np.array([t.level for t in truths])
+    closures = np.array(closures, dtype=int).reshape(-1, 2)
+    scores = run_metrics(
+        truth=np.array([t.pose for t in truths]), true_levels=true_levels, levels=np.array(world.levels),
+        estimate=estimates, odometry=self_motion, experience_positions=experience_map.poses[:, :3],
+        experience_frames=np.searchsorted(times, experience_map.creation_times),
+        closure_frames=closures[:, 0], closure_experiences=closures[:, 1],
+    )
     summary = {
         "world": world.name,
         "route": drive.route.name,
@@ -147,16 +157,12 @@ def _drive(args: argparse.Namespace) -> int:
         "laps": drive.laps_completed,
         "distance_m": float(np.sum(np.linalg.norm(np.diff(positions, axis=0), axis=1))),
         "levels": list(world.levels),
-        "levels_visited": sorted({int(t.level) for t in truths}),
+        "levels_visited": sorted({int(level) for level in true_levels}),
         "height_range_m": [float(positions[:, 2].min()), float(positions[:, 2].max())],
         "odometry": args.odometry,
         "templates": slam.local_view.count,
         "experiences": experience_map.size,
-        "loop_closures": experience_map.loop_closures,
-        "ate_rmse_m": {
-            "slam": ate_rmse(estimates[:, :3], positions) if enough else None,
-            "odometry": ate_rmse(self_motion[:, :3], positions) if enough else None,
-        },
+        **scores,
         "ms_per_frame": {
             "slam": 1000 * slam_seconds / frames,
             "physics": 1000 * drive.timings["physics"] / frames,
@@ -164,7 +170,7 @@ def _drive(args: argparse.Namespace) -> int:
             "total": 1000 * elapsed / frames,
         },
     }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    (out / "metrics.json").write_text(json.dumps(summary, indent=2) + "\n")
     rows = [
         ("world / route", f"{world.name} / {drive.route.name}"),
         ("frames", f"{frames} ({times[-1]:.1f} s simulated)"),
@@ -173,10 +179,12 @@ def _drive(args: argparse.Namespace) -> int:
         ("levels visited", f"{summary['levels_visited']} of {list(range(len(world.levels)))}"),
         ("height range", f"{summary['height_range_m'][0]:.2f} .. {summary['height_range_m'][1]:.2f} m"),
         ("map", f"{summary['templates']} templates, {summary['experiences']} experiences, "
-                f"{summary['loop_closures']} loop closures"),
+                f"{summary['loop_closures']} loop closures ({summary['false_loop_closures']} false)"),
         ("ATE (Sim(3))", "SLAM {slam}, {odometry} odometry {odometry_ate}".format(
             slam=_metres(summary["ate_rmse_m"]["slam"]), odometry=args.odometry,
             odometry_ate=_metres(summary["ate_rmse_m"]["odometry"]))),
+        ("map error", f"{_metres(summary['map_rmse_m'])} (experiences, Sim(3)); level accuracy "
+                      + ("n/a" if summary["level_accuracy"] is None else f"{summary['level_accuracy']:.2f}")),
         ("ms per frame", "SLAM {slam:.2f}, physics {physics:.2f}, render {render:.2f}, total {total:.2f}".format(
             **summary["ms_per_frame"])),
         ("output", str(out)),

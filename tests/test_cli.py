@@ -42,11 +42,16 @@ def test_short_drive_with_slam_writes_trajectories_and_summary(tmp_path, capsys,
         np.testing.assert_array_equal(other_times, times)
         assert np.all(np.isfinite(other_positions))
     experience_times, _, _ = read_tum(tmp_path / "experiences.tum")
-    summary = json.loads((tmp_path / "summary.json").read_text())
+    summary = json.loads((tmp_path / "metrics.json").read_text())
     assert summary["frames"] == 30 and summary["world"] == "gen:2" and summary["odometry"] == odometry
     assert summary["distance_m"] > 0.5
     assert summary["experiences"] == len(experience_times) >= 1 and summary["templates"] >= 1
+    for key in ("world", "route", "frames", "distance_m", "levels_visited", "ate_rmse_m", "ate_se3_rmse_m",
+                "rpe_rmse_m", "map_rmse_m", "loop_closures", "false_loop_closures", "level_accuracy", "templates",
+                "experiences", "ms_per_frame"):
+        assert key in summary, key
     assert set(summary["ate_rmse_m"]) == {"slam", "odometry"} and summary["ate_rmse_m"]["slam"] >= 0
+    assert 0 <= summary["level_accuracy"] <= 1 and summary["false_loop_closures"] <= summary["loop_closures"]
     assert set(summary["ms_per_frame"]) == {"slam", "physics", "render", "total"}
     assert "levels visited" in capsys.readouterr().out
 

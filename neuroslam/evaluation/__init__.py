@@ -1,5 +1,7 @@
-"""Evaluation against ground truth: trajectory alignment and errors (pure math, no I/O)."""
+"""Evaluation against ground truth: trajectory alignment and errors, loop-closure and level scores
+(pure math, no I/O)."""
 
+from .metrics import align, false_loop_closures, level_accuracy, rpe_rmse, run_metrics
 from .trajectory import ate_rmse, umeyama
 
-__all__ = ["ate_rmse", "umeyama"]
+__all__ = ["align", "ate_rmse", "false_loop_closures", "level_accuracy", "rpe_rmse", "run_metrics", "umeyama"]

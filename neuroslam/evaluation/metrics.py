@@ -1,0 +1,112 @@
+"""SLAM metrics against ground truth: relative pose error, map error, loop-closure and floor-level scores.
+
+Conventions follow the SLAM-evaluation standard (evo; Zhang and Scaramuzza 2018): absolute errors after a
+Sim(3) (or SE(3)) Umeyama alignment, relative errors over fixed travelled distances, RMSE throughout.
+Poses are (x, y, z, yaw) in metres and radians.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .trajectory import umeyama
+
+__all__ = ["align", "false_loop_closures", "level_accuracy", "rpe_rmse", "run_metrics"]
+
+
+def align(estimate: np.ndarray, truth: np.ndarray, *, with_scale: bool = True) -> np.ndarray:
+    """``estimate`` positions (N × 3) mapped onto ``truth`` by the best Sim(3) (or SE(3)) alignment."""
+    scale, rotation, translation = umeyama(estimate, truth, with_scale=with_scale)
+    return scale * np.asarray(estimate, dtype=float) @ rotation.T + translation
+
+
+def rpe_rmse(estimate: np.ndarray, truth: np.ndarray, *, segment: float = 10.0) -> float | None:
+    """Relative position error (m, RMSE) over segments of ``segment`` metres of true travel.
+
+    For every frame i the partner j is the first frame at least ``segment`` metres further along the true
+    path; the error is the difference between the estimated and the true displacement from i to j, each
+    expressed in its own frame i (rotated by minus that frame's yaw), so a constant offset or heading of
+    the whole trajectory costs nothing. None when the path is shorter than one segment.
+    """
+    estimate = np.asarray(estimate, dtype=float)
+    truth = np.asarray(truth, dtype=float)
+    travelled = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(truth[:, :3], axis=0), axis=1))])
+    partners = np.searchsorted(travelled, travelled + segment)
+    starts = np.flatnonzero(partners < len(truth))
+    if len(starts) == 0:
+        return None
+    ends = partners[starts]
+
+    def local(poses: np.ndarray) -> np.ndarray:
+        displacement = poses[ends, :3] - poses[starts, :3]
+        yaw = poses[starts, 3]
+        c, s = np.cos(yaw), np.sin(yaw)
+        return np.column_stack([c * displacement[:, 0] + s * displacement[:, 1],
+                                -s * displacement[:, 0] + c * displacement[:, 1], displacement[:, 2]])
+
+    errors = np.linalg.norm(local(estimate) - local(truth), axis=1)
+    return float(math.sqrt(np.mean(errors**2)))
+
+
+def level_accuracy(aligned_heights: np.ndarray, true_levels: np.ndarray, levels: np.ndarray) -> float:
+    """Share of frames whose (aligned) estimated height is nearest to the floor of their true level."""
+    levels = np.asarray(levels, dtype=float)
+    nearest = np.abs(np.asarray(aligned_heights, dtype=float)[:, None] - levels[None]).argmin(axis=1)
+    return float(np.mean(nearest == np.asarray(true_levels)))
+
+
+def false_loop_closures(positions_now: np.ndarray, positions_then: np.ndarray, levels_now: np.ndarray,
+                        levels_then: np.ndarray, *, distance: float = 2.0) -> int:
+    """How many loop closures joined places more than ``distance`` metres apart, or on different levels,
+    in ground truth (the robot's true position now against the matched experience's when it was made)."""
+    gaps = np.linalg.norm(np.asarray(positions_now, dtype=float) - np.asarray(positions_then, dtype=float), axis=1)
+    return int(np.count_nonzero((gaps > distance) | (np.asarray(levels_now) != np.asarray(levels_then))))
+
+
+def run_metrics(
+    *,
+    truth: np.ndarray,
+    true_levels: np.ndarray,
+    levels: np.ndarray,
+    estimate: np.ndarray,
+    odometry: np.ndarray,
+    experience_positions: np.ndarray,
+    experience_frames: np.ndarray,
+    closure_frames: np.ndarray,
+    closure_experiences: np.ndarray,
+) -> dict:
+    """The accuracy numbers of one run, as plain data for ``metrics.json``.
+
+    Args:
+        truth: (N, 4) true poses per frame. true_levels: (N,) true level index per frame.
+        levels: floor heights, m. estimate, odometry: (N, 4) SLAM and odometry poses per frame.
+        experience_positions: (M, 3) final experience positions. experience_frames: (M,) frame each was made.
+        closure_frames, closure_experiences: frame and re-entered experience of every loop closure.
+
+    Returns ``ate_rmse_m`` and ``ate_se3_rmse_m`` ({slam, odometry}), ``rpe_rmse_m`` ({slam, odometry},
+    10 m segments), ``map_rmse_m``, ``loop_closures``, ``false_loop_closures`` and ``level_accuracy``;
+    a number that needs more frames than the run has is None.
+    """
+    positions = truth[:, :3]
+    enough = len(truth) >= 3
+    result: dict = {"ate_rmse_m": {}, "ate_se3_rmse_m": {}, "rpe_rmse_m": {}}
+    for name, poses in (("slam", estimate), ("odometry", odometry)):
+        result["ate_rmse_m"][name] = _rmse(align(poses[:, :3], positions), positions) if enough else None
+        result["ate_se3_rmse_m"][name] = (_rmse(align(poses[:, :3], positions, with_scale=False), positions)
+                                          if enough else None)
+        result["rpe_rmse_m"][name] = rpe_rmse(poses, truth)
+    made = positions[experience_frames]
+    result["map_rmse_m"] = _rmse(align(experience_positions, made), made) if len(made) >= 3 else None
+    result["loop_closures"] = int(len(closure_frames))
+    result["false_loop_closures"] = false_loop_closures(
+        positions[closure_frames], positions[experience_frames[closure_experiences]],
+        true_levels[closure_frames], true_levels[experience_frames[closure_experiences]])
+    result["level_accuracy"] = (level_accuracy(align(estimate[:, :3], positions)[:, 2], true_levels, levels)
+                                if enough else None)
+    return result
+
+
+def _rmse(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.sqrt(((a - b) ** 2).sum(axis=1).mean()))

@@ -110,7 +110,7 @@ class NeuroSLAM:
             raise InvalidInputError("image", f"shape {array.shape}", "must be HxW grey or HxWx3 RGB")
         if array.size == 0 or min(array.shape[:2]) < 8:
             raise InvalidInputError("image", f"shape {array.shape}", "must be at least 8x8 pixels")
-        if not (np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating)):
+        if not (array.dtype == np.uint8 or np.issubdtype(array.dtype, np.floating)):
             raise InvalidInputError("image", f"dtype {array.dtype}", "must be uint8 or floats in [0, 1]")
         if np.issubdtype(array.dtype, np.floating) and not np.all(np.isfinite(array)):
             raise InvalidInputError("image", "with NaN or infinity", "must be finite")

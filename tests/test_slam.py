@@ -23,6 +23,7 @@ def state(slam):
     (np.zeros((120, 160, 4), np.uint8), (), "image"),
     (np.zeros((0, 160), np.uint8), (), "image"),
     (np.array([["a"] * 20] * 20), (), "image"),
+    (np.zeros((120, 160), np.uint16), (), "image"),
     (np.full((120, 160), np.nan), (), "image"),
     (np.zeros((100, 160, 3), np.uint8), (), "image"),
     (None, (float("nan"),), "timestamp"),

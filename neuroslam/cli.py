@@ -2,6 +2,8 @@
 
 Commands:
     drive   drive a route in a simulated world with NeuroSLAM in the loop; write trajectories and metrics
+    run     run NeuroSLAM on a folder of recorded frames (with optional ground truth)
+    record  save a simulated drive as such a folder
     worlds  list the built-in worlds with their levels and routes
 """
 
@@ -73,6 +75,35 @@ def _parser() -> argparse.ArgumentParser:
                        "camera's height rate (default: visual)")
     drive.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
 
+    run = commands.add_parser(
+        "run", help="run NeuroSLAM on a folder of recorded frames",
+        description="Run NeuroSLAM on a folder of PNG/JPEG frames (natural order; a frames/ subfolder is used if "
+        "present) and write slam.tum, odometry.tum, experiences.tum and metrics.json; with --groundtruth (TUM, "
+        "whose times become the frames' times, or the NeuroSLAM CSV frame,x,y,z,rx,ry,rz) metrics.json adds the "
+        "trajectory and map errors.")
+    run.add_argument("frames", type=Path, help="folder of frames (for example one written by neuroslam record)")
+    run.add_argument("--groundtruth", type=Path, help="ground truth: TUM or NeuroSLAM CSV")
+    run.add_argument("--rate", type=_positive_float, default=10.0,
+                     help="frames per second when the ground truth gives no times (default: 10)")
+    run.add_argument("--max-frames", type=_positive_int, help="use only the first N frames")
+    run.add_argument("--preset", default="sim", help="NeuroSLAM parameter preset (default: sim)")
+    run.add_argument("--config", type=Path, help="TOML or JSON file of NeuroSLAM settings over the preset")
+    run.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
+
+    record = commands.add_parser(
+        "record", help="save a simulated drive as a dataset of frames and ground truth",
+        description="Drive a route and save frames/NNNNNN.png, groundtruth.tum and wheel_odometry.tum, a dataset "
+        "that neuroslam run (or any other SLAM system) can replay.")
+    record.add_argument("world", help="built-in world name, gen:SEED, or an MJCF file")
+    record.add_argument("--route", help="route name (default: the first route)")
+    record.add_argument("--laps", type=_positive_int, default=1, help="laps to drive (default: 1)")
+    record.add_argument("--speed", type=_positive_float, default=1.0, help="cruise speed in m/s (default: 1.0)")
+    record.add_argument("--width", type=_positive_int, default=160, help="image width in pixels (default: 160)")
+    record.add_argument("--height", type=_positive_int, default=120, help="image height in pixels (default: 120)")
+    record.add_argument("--seed", type=int, default=0, help="seed of the sensor noise (default: 0)")
+    record.add_argument("--max-frames", type=_positive_int, help="stop after this many frames")
+    record.add_argument("--out", type=Path, required=True, help="dataset folder to write")
+
     commands.add_parser("worlds", help="list the built-in worlds with their levels and routes",
                         description="List the built-in worlds with their floor levels and routes.")
     return parser
@@ -83,18 +114,12 @@ def _drive(args: argparse.Namespace) -> int:
 
     import sim  # the simulator is only needed here; importing it selects headless rendering
 
-    from . import presets
-    from .config import load_config
     from .evaluation import run_metrics
-    from .slam import NeuroSLAM
     from .tum import write_tum, yaw_quaternion
     from .vision.odometry import SelfMotion
     from .vision.preprocessing import grey
 
-    config = presets.get(args.preset)
-    if args.config is not None:
-        config = load_config(args.config, base=config)
-    slam = NeuroSLAM(config)
+    slam = _slam_from(args)
 
     route_name, routes_file = args.route, None
     if args.route and args.route.endswith(".json"):
@@ -136,11 +161,8 @@ def _drive(args: argparse.Namespace) -> int:
     write_tum(out / "wheel_odometry.tum", times, np.array([[o.x, o.y, 0.0] for o in odometry]),
               yaw_quaternion(np.array([o.yaw for o in odometry])))
     estimates, self_motion = np.array(estimates), np.array(self_motion)
-    write_tum(out / "slam.tum", times, estimates[:, :3], yaw_quaternion(estimates[:, 3]))
-    write_tum(out / "odometry.tum", times, self_motion[:, :3], yaw_quaternion(self_motion[:, 3]))
+    _write_slam(out, times, estimates, self_motion, slam)
     experience_map = slam.experience_map
-    write_tum(out / "experiences.tum", experience_map.creation_times, experience_map.poses[:, :3],
-              yaw_quaternion(experience_map.poses[:, 3]))
     frames = len(times)
     true_levels = np.array([t.level for t in truths])
     closures = np.array(closures, dtype=int).reshape(-1, 2)
@@ -189,9 +211,123 @@ def _drive(args: argparse.Namespace) -> int:
             **summary["ms_per_frame"])),
         ("output", str(out)),
     ]
+    _print_rows(rows)
+    return 0
+
+
+def _write_slam(out: Path, times: np.ndarray, estimates: np.ndarray, self_motion: np.ndarray, slam) -> None:
+    """slam.tum, odometry.tum and experiences.tum of a run."""
+    from .tum import write_tum, yaw_quaternion
+
+    write_tum(out / "slam.tum", times, estimates[:, :3], yaw_quaternion(estimates[:, 3]))
+    write_tum(out / "odometry.tum", times, self_motion[:, :3], yaw_quaternion(self_motion[:, 3]))
+    experience_map = slam.experience_map
+    write_tum(out / "experiences.tum", experience_map.creation_times, experience_map.poses[:, :3],
+              yaw_quaternion(experience_map.poses[:, 3]))
+
+
+def _print_rows(rows: list[tuple[str, str]]) -> None:
     width = max(len(name) for name, _ in rows)
     for name, value in rows:
         print(f"{name:<{width}}  {value}")
+
+
+def _slam_from(args: argparse.Namespace):
+    from . import presets
+    from .config import load_config
+    from .slam import NeuroSLAM
+
+    config = presets.get(args.preset)
+    if args.config is not None:
+        config = load_config(args.config, base=config)
+    return NeuroSLAM(config)
+
+
+def _run(args: argparse.Namespace) -> int:
+    """NeuroSLAM on a folder of recorded frames."""
+    from tqdm import tqdm
+
+    from .datasets import DatasetError, frame_times, list_frames, load_frame, read_groundtruth
+    from .evaluation import run_metrics
+
+    frames = list_frames(args.frames)
+    groundtruth = read_groundtruth(args.groundtruth) if args.groundtruth is not None else None
+    if args.max_frames is not None:
+        frames = frames[: args.max_frames]
+    if groundtruth is not None:
+        if len(groundtruth.positions) < len(frames):
+            raise DatasetError(f"ground truth {str(args.groundtruth)!r}: {len(groundtruth.positions)} rows for "
+                               f"{len(frames)} frames")
+        groundtruth = type(groundtruth)(groundtruth.positions[: len(frames)], groundtruth.yaw[: len(frames)],
+                                        None if groundtruth.times is None else groundtruth.times[: len(frames)])
+    times = frame_times(len(frames), groundtruth, args.rate)
+    slam = _slam_from(args)
+    out = args.out or Path("runs") / f"run-{Path(args.frames).resolve().name}-{time.strftime('%Y%m%d-%H%M%S')}"
+    out.mkdir(parents=True, exist_ok=True)
+    estimates, self_motion, closures = [], [], []
+    started = time.perf_counter()
+    for index, path in enumerate(tqdm(frames, unit="frame", desc=Path(args.frames).name)):
+        estimate = slam.step(load_frame(path), float(times[index]))
+        estimates.append(estimate.pose)
+        self_motion.append(slam.odometry_pose)
+        if estimate.loop_closure:
+            closures.append((index, estimate.experience_id))
+    elapsed = time.perf_counter() - started
+    estimates, self_motion = np.array(estimates), np.array(self_motion)
+    _write_slam(out, times, estimates, self_motion, slam)
+    experience_map = slam.experience_map
+    metrics = {"frames": len(frames), "templates": slam.local_view.count, "experiences": experience_map.size,
+               "loop_closures": experience_map.loop_closures}
+    if groundtruth is not None:
+        closures = np.array(closures, dtype=int).reshape(-1, 2)
+        metrics.update(run_metrics(
+            truth=groundtruth.poses, true_levels=None, levels=None, estimate=estimates, odometry=self_motion,
+            experience_positions=experience_map.poses[:, :3],
+            experience_frames=np.searchsorted(times, experience_map.creation_times),
+            closure_frames=closures[:, 0], closure_experiences=closures[:, 1]))
+    metrics["ms_per_frame"] = {"total": 1000 * elapsed / len(frames)}
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    rows = [("frames", str(len(frames))),
+            ("map", f"{metrics['templates']} templates, {metrics['experiences']} experiences, "
+                    f"{metrics['loop_closures']} loop closures")]
+    if groundtruth is not None:
+        rows.append(("ATE (Sim(3))", f"SLAM {_metres(metrics['ate_rmse_m']['slam'])}, "
+                                     f"odometry {_metres(metrics['ate_rmse_m']['odometry'])}"))
+    rows += [("ms per frame", f"{metrics['ms_per_frame']['total']:.2f} (reading images included)"),
+             ("output", str(out))]
+    _print_rows(rows)
+    return 0
+
+
+def _record(args: argparse.Namespace) -> int:
+    """Save a drive as a dataset: frames/NNNNNN.png, groundtruth.tum, wheel_odometry.tum."""
+    from PIL import Image
+    from tqdm import tqdm
+
+    import sim
+
+    from .tum import write_tum, yaw_quaternion
+
+    world = sim.load_world(args.world)
+    drive = sim.ScriptedDrive(world, route=args.route, laps=args.laps, speed=args.speed, max_frames=args.max_frames,
+                              seed=args.seed, camera=sim.CameraConfig(width=args.width, height=args.height))
+    out = args.out
+    (out / "frames").mkdir(parents=True, exist_ok=True)
+    times, truths, odometry = [], [], []
+    with tqdm(total=int(drive.total_distance), unit="m", desc=f"record {world.name}") as bar:
+        for frame in drive:
+            Image.fromarray(frame.image).save(out / "frames" / f"{frame.index:06d}.png")
+            times.append(frame.time)
+            truths.append(frame.ground_truth)
+            odometry.append(frame.odometry)
+            bar.update(min(int(frame.progress), bar.total) - bar.n)
+    times = np.array(times)
+    write_tum(out / "groundtruth.tum", times, np.array([t.position for t in truths]),
+              np.array([t.quaternion for t in truths]))
+    write_tum(out / "wheel_odometry.tum", times, np.array([[o.x, o.y, 0.0] for o in odometry]),
+              yaw_quaternion(np.array([o.yaw for o in odometry])))
+    _print_rows([("world / route", f"{world.name} / {drive.route.name}"), ("frames", str(len(times))),
+                 ("output", str(out))])
     return 0
 
 
@@ -214,7 +350,7 @@ def _worlds(_: argparse.Namespace) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``neuroslam`` console script; returns the exit code."""
     args = _parser().parse_args(argv)
-    handlers = {"drive": _drive, "worlds": _worlds}
+    handlers = {"drive": _drive, "run": _run, "record": _record, "worlds": _worlds}
     try:
         return handlers[args.command](args)
     except KeyboardInterrupt:

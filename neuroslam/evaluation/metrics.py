@@ -68,8 +68,8 @@ def false_loop_closures(positions_now: np.ndarray, positions_then: np.ndarray, l
 def run_metrics(
     *,
     truth: np.ndarray,
-    true_levels: np.ndarray,
-    levels: np.ndarray,
+    true_levels: np.ndarray | None,
+    levels: np.ndarray | None,
     estimate: np.ndarray,
     odometry: np.ndarray,
     experience_positions: np.ndarray,
@@ -80,8 +80,9 @@ def run_metrics(
     """The accuracy numbers of one run, as plain data for ``metrics.json``.
 
     Args:
-        truth: (N, 4) true poses per frame. true_levels: (N,) true level index per frame.
-        levels: floor heights, m. estimate, odometry: (N, 4) SLAM and odometry poses per frame.
+        truth: (N, 4) true poses per frame. true_levels: (N,) true level index per frame, or None.
+        levels: floor heights, m, or None (then no level accuracy, and closures are judged by distance).
+        estimate, odometry: (N, 4) SLAM and odometry poses per frame.
         experience_positions: (M, 3) final experience positions. experience_frames: (M,) frame each was made.
         closure_frames, closure_experiences: frame and re-entered experience of every loop closure.
 
@@ -91,6 +92,9 @@ def run_metrics(
     """
     positions = truth[:, :3]
     enough = len(truth) >= 3
+    known_levels = true_levels is not None and levels is not None
+    if true_levels is None:
+        true_levels = np.zeros(len(truth), dtype=int)
     result: dict = {"ate_rmse_m": {}, "ate_se3_rmse_m": {}, "rpe_rmse_m": {}}
     for name, poses in (("slam", estimate), ("odometry", odometry)):
         result["ate_rmse_m"][name] = _rmse(align(poses[:, :3], positions), positions) if enough else None
@@ -104,7 +108,7 @@ def run_metrics(
         positions[closure_frames], positions[experience_frames[closure_experiences]],
         true_levels[closure_frames], true_levels[experience_frames[closure_experiences]])
     result["level_accuracy"] = (level_accuracy(align(estimate[:, :3], positions)[:, 2], true_levels, levels)
-                                if enough else None)
+                                if enough and known_levels else None)
     return result
 
 

@@ -1,0 +1,113 @@
+"""Recorded image sequences: a folder of frames plus optional ground truth, read as a frame stream.
+
+A dataset folder holds PNG or JPEG frames, taken in natural order (``frame2`` before ``frame10``), and
+optionally ground truth in TUM format (``t x y z qx qy qz qw``, which also gives the frames' times) or in
+the NeuroSLAM CSV format (``frame,x,y,z,rx,ry,rz``, angles in radians, no header). ``neuroslam record``
+writes such folders (frames in ``frames/``, ``groundtruth.tum``, ``wheel_odometry.tum``).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import NeuroSLAMError
+
+__all__ = ["DatasetError", "GroundTruth", "list_frames", "load_frame", "read_groundtruth"]
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
+
+
+class DatasetError(NeuroSLAMError, ValueError):
+    """A dataset folder, frame or ground-truth file cannot be used."""
+
+
+@dataclass(frozen=True)
+class GroundTruth:
+    """Ground truth of a sequence: positions (N × 3, m), yaw (N, rad) and, from TUM files, times (N, s)."""
+
+    positions: np.ndarray
+    yaw: np.ndarray
+    times: np.ndarray | None
+
+    @property
+    def poses(self) -> np.ndarray:
+        """(N, 4) x, y, z, yaw."""
+        return np.column_stack([self.positions, self.yaw])
+
+
+def _natural_key(path: Path) -> list:
+    return [int(part) if part.isdigit() else part.lower() for part in re.split(r"(\d+)", path.name)]
+
+
+def list_frames(folder: str | Path) -> list[Path]:
+    """The image files of ``folder`` (or of its ``frames/`` subfolder) in natural order."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise DatasetError(f"frames folder {str(folder)!r}: not a readable folder")
+    if (folder / "frames").is_dir():
+        folder = folder / "frames"
+    try:
+        frames = [p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file()]
+    except OSError as error:
+        raise DatasetError(f"frames folder {str(folder)!r}: cannot list it ({error.strerror})") from None
+    if not frames:
+        raise DatasetError(f"frames folder {str(folder)!r}: no PNG or JPEG images in it")
+    return sorted(frames, key=_natural_key)
+
+
+def load_frame(path: Path) -> np.ndarray:
+    """An image as HxWx3 uint8 RGB (grey images are kept HxW)."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as image:
+            image = image.convert("L" if image.mode in ("L", "I;16", "I") else "RGB")
+            return np.asarray(image, dtype=np.uint8)
+    except (OSError, UnidentifiedImageError) as error:
+        raise DatasetError(f"frame {str(path)!r}: not a readable image ({error})") from None
+
+
+def read_groundtruth(path: str | Path) -> GroundTruth:
+    """Read TUM (8 columns, whitespace) or NeuroSLAM CSV (7 columns, commas) ground truth."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as error:
+        raise DatasetError(f"ground truth {str(path)!r}: cannot read it ({error})") from None
+    rows = [line for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#")]
+    if not rows:
+        raise DatasetError(f"ground truth {str(path)!r}: no rows")
+    comma = "," in rows[0]
+    fields = [row.split(",") if comma else row.split() for row in rows]
+    widths = {len(row) for row in fields}
+    if len(widths) > 1:
+        line = next(i for i, row in enumerate(fields) if len(row) != len(fields[0])) + 1
+        raise DatasetError(f"ground truth {str(path)!r}: rows have different numbers of columns (data row {line})")
+    try:
+        table = np.array([[float(v) for v in row] for row in fields])
+    except ValueError:
+        raise DatasetError(f"ground truth {str(path)!r}: rows must be numbers") from None
+    if table.shape[1] == 8:
+        qx, qy, qz, qw = table[:, 4], table[:, 5], table[:, 6], table[:, 7]
+        yaw = np.arctan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy**2 + qz**2))
+        return GroundTruth(table[:, 1:4], yaw, table[:, 0])
+    if table.shape[1] == 7:
+        return GroundTruth(table[:, 1:4], np.arctan2(np.sin(table[:, 6]), np.cos(table[:, 6])), None)
+    raise DatasetError(
+        f"ground truth {str(path)!r}: {table.shape[1]} columns; expected 8 (TUM: t x y z qx qy qz qw) "
+        "or 7 (CSV: frame,x,y,z,rx,ry,rz)"
+    )
+
+
+def frame_times(count: int, groundtruth: GroundTruth | None, rate: float) -> np.ndarray:
+    """Times of ``count`` frames: the ground truth's TUM times when it has one per frame, else ``rate`` Hz."""
+    if groundtruth is not None and groundtruth.times is not None:
+        return groundtruth.times
+    if not math.isfinite(rate) or rate <= 0:
+        raise DatasetError(f"rate={rate!r}: must be a positive number of frames per second")
+    return np.arange(count) / rate

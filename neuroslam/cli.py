@@ -4,6 +4,7 @@ Commands:
     drive   drive a route in a simulated world with NeuroSLAM in the loop; write trajectories and metrics
     run     run NeuroSLAM on a folder of recorded frames (with optional ground truth)
     record  save a simulated drive as such a folder
+    calibrate  fit the visual-odometry gains to ground truth and write a config file
     worlds  list the built-in worlds with their levels and routes
 """
 
@@ -103,6 +104,20 @@ def _parser() -> argparse.ArgumentParser:
     record.add_argument("--seed", type=int, default=0, help="seed of the sensor noise (default: 0)")
     record.add_argument("--max-frames", type=_positive_int, help="stop after this many frames")
     record.add_argument("--out", type=Path, required=True, help="dataset folder to write")
+
+    calibrate = commands.add_parser(
+        "calibrate", help="fit the visual-odometry gains to ground truth and write a config file",
+        description="Drive a calibration route, compare the visual odometry's raw measurements with ground truth, "
+        "fit its gains (speed and yaw scale by least squares; the height pipeline by the least height error) and "
+        "write them as a TOML config file usable with --config.")
+    calibrate.add_argument("world", help="built-in world name, gen:SEED, or an MJCF file")
+    calibrate.add_argument("--route", help="route name (default: the first route)")
+    calibrate.add_argument("--laps", type=_positive_int, default=1, help="laps to drive (default: 1)")
+    calibrate.add_argument("--seed", type=int, default=0, help="seed of the sensor noise (default: 0)")
+    calibrate.add_argument("--max-frames", type=_positive_int, help="stop after this many frames")
+    calibrate.add_argument("--preset", default="sim", help="preset whose camera and regions to calibrate")
+    calibrate.add_argument("--config", type=Path, help="TOML or JSON settings over the preset")
+    calibrate.add_argument("--out", type=Path, required=True, help="TOML file to write")
 
     commands.add_parser("worlds", help="list the built-in worlds with their levels and routes",
                         description="List the built-in worlds with their floor levels and routes.")
@@ -331,6 +346,60 @@ def _record(args: argparse.Namespace) -> int:
     return 0
 
 
+def _calibrate(args: argparse.Namespace) -> int:
+    """Fit the visual-odometry gains on a calibration drive and write them as a config file."""
+    import dataclasses
+
+    from tqdm import tqdm
+
+    import sim
+
+    from .vision.calibration import fit_odometry_gains
+    from .vision.odometry import VisualOdometry
+    from .vision.preprocessing import grey
+
+    base = _slam_from(args).config
+    neutral = dataclasses.replace(base.odometry, speed_scale=1.0, yaw_scale=1.0, climb_scale=1.0,
+                                  pitch_flow_bias=0.0, pitch_leak=0.0, max_speed=1e6, max_yaw_rate=1e6,
+                                  max_climb_rate=1e6)
+    odometry = VisualOdometry(neutral, horizontal_fov=base.horizontal_fov, vertical_fov=base.vertical_fov,
+                              panoramic=base.panoramic)
+    world = sim.load_world(args.world)
+    drive = sim.ScriptedDrive(world, route=args.route, laps=args.laps, max_frames=args.max_frames, seed=args.seed)
+    rows = []
+    previous = None
+    with tqdm(total=int(drive.total_distance), unit="m", desc=f"calibrate {world.name}") as bar:
+        for frame in drive:
+            dt = 0.0 if previous is None else frame.time - previous.time
+            pitch_before = odometry.pitch
+            motion = odometry.step(grey(frame.image), dt)
+            truth = frame.ground_truth
+            if previous is not None:
+                turn = math.atan2(math.sin(truth.yaw - previous.ground_truth.yaw),
+                                  math.cos(truth.yaw - previous.ground_truth.yaw))
+                rows.append((dt, motion.forward_speed * dt, motion.yaw_rate, odometry.pitch - pitch_before,
+                             float(np.hypot(*truth.velocity[:2])), turn / dt, truth.position[2]))
+            previous = frame
+            bar.update(min(int(frame.progress), bar.total) - bar.n)
+    table = np.array(rows)
+    fit = fit_odometry_gains(dt=table[:, 0], raw_difference=table[:, 1], raw_yaw_rate=table[:, 2],
+                             raw_pitch_change=table[:, 3], true_speed=table[:, 4], true_yaw_rate=table[:, 5],
+                             true_height=table[:, 6])
+    lines = [f"# visual-odometry gains fitted by neuroslam calibrate on {world.name} ({len(table)} frames)",
+             "[odometry]"] + [f"{key} = {value!r}" for key, value in fit.settings()["odometry"].items()]
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text("\n".join(lines) + "\n")
+    _print_rows([
+        ("frames", str(len(table))),
+        ("speed", f"scale {fit.speed_scale:.3f}, correlation {fit.speed_correlation:.2f}"),
+        ("yaw", f"scale {fit.yaw_scale:.3f}, correlation {fit.yaw_correlation:.2f}"),
+        ("height", f"climb gain {fit.climb_scale:.2f}, pitch bias {fit.pitch_flow_bias:.4f} rad/m, "
+                   f"leak {fit.pitch_leak:.2f}/s, height error {fit.height_rmse:.2f} m"),
+        ("config", f"{args.out} (use with --config)"),
+    ])
+    return 0
+
+
 def _metres(value: float | None) -> str:
     return "n/a" if value is None else f"{value:.2f} m"
 
@@ -350,7 +419,7 @@ def _worlds(_: argparse.Namespace) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``neuroslam`` console script; returns the exit code."""
     args = _parser().parse_args(argv)
-    handlers = {"drive": _drive, "run": _run, "record": _record, "worlds": _worlds}
+    handlers = {"drive": _drive, "run": _run, "record": _record, "calibrate": _calibrate, "worlds": _worlds}
     try:
         return handlers[args.command](args)
     except KeyboardInterrupt:

@@ -69,3 +69,28 @@ def test_bad_input_gives_one_line_and_exit_code_2(args, text):
     lines = result.stderr.strip().splitlines()
     assert "Traceback" not in result.stderr
     assert text in lines[-1]
+
+
+def test_calibrate_writes_a_config_that_loads(tmp_path, capsys):
+    from neuroslam import load_config
+
+    out = tmp_path / "gains.toml"
+    assert main(["calibrate", "gen:2", "--max-frames", "60", "--out", str(out)]) == 0
+    config = load_config(out)
+    assert config.odometry.speed_scale > 0 and config.odometry.yaw_scale > 0
+    assert "height error" in capsys.readouterr().out
+
+
+def test_fit_odometry_gains_recovers_known_scales():
+    from neuroslam.vision.calibration import fit_odometry_gains
+
+    rng = np.random.default_rng(0)
+    n = 200
+    dt = np.full(n, 0.1)
+    speed = 1.0 + 0.2 * rng.random(n)
+    yaw_rate = rng.normal(0, 0.3, n)
+    fit = fit_odometry_gains(dt=dt, raw_difference=speed * dt / 8.0, raw_yaw_rate=yaw_rate / 0.8,
+                             raw_pitch_change=np.zeros(n), true_speed=speed, true_yaw_rate=yaw_rate,
+                             true_height=np.zeros(n))
+    assert fit.speed_scale == pytest.approx(8.0) and fit.yaw_scale == pytest.approx(0.8)
+    assert fit.height_rmse == pytest.approx(0.0)

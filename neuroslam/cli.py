@@ -146,7 +146,7 @@ def _drive(args: argparse.Namespace) -> int:
                               camera=camera, quality=args.quality)
     out = args.out or Path("runs") / f"drive-{world.name.replace(':', '_')}-{time.strftime('%Y%m%d-%H%M%S')}"
     out.mkdir(parents=True, exist_ok=True)
-    times, truths, odometry, estimates, self_motion, closures = [], [], [], [], [], []
+    times, truths, odometry, estimates, self_motion, closures, active = [], [], [], [], [], [], []
     slam_seconds = 0.0
     previous_time = None
     started = time.perf_counter()
@@ -165,6 +165,7 @@ def _drive(args: argparse.Namespace) -> int:
             truths.append(frame.ground_truth)
             odometry.append(frame.odometry)
             estimates.append(estimate.pose)
+            active.append((estimate.template_id, estimate.experience_id))
             if estimate.loop_closure:
                 closures.append((len(times) - 1, estimate.experience_id))
             self_motion.append(slam.odometry_pose)
@@ -208,6 +209,8 @@ def _drive(args: argparse.Namespace) -> int:
         },
     }
     (out / "metrics.json").write_text(json.dumps(summary, indent=2) + "\n")
+    _report(out / "report.png", f"{world.name} / {drive.route.name}: {args.odometry} odometry", times,
+            np.array([t.pose for t in truths]), estimates, self_motion, slam, np.array(active))
     rows = [
         ("world / route", f"{world.name} / {drive.route.name}"),
         ("frames", f"{frames} ({times[-1]:.1f} s simulated)"),
@@ -239,6 +242,17 @@ def _write_slam(out: Path, times: np.ndarray, estimates: np.ndarray, self_motion
     experience_map = slam.experience_map
     write_tum(out / "experiences.tum", experience_map.creation_times, experience_map.poses[:, :3],
               yaw_quaternion(experience_map.poses[:, 3]))
+
+
+def _report(path: Path, title: str, times: np.ndarray, truth: np.ndarray | None, estimates: np.ndarray,
+            self_motion: np.ndarray, slam, active: np.ndarray) -> None:
+    """report.png of a run."""
+    from .plots import plot_report
+
+    experience_map = slam.experience_map
+    plot_report(truth=truth, odometry=self_motion, estimate=estimates, experiences=experience_map.poses,
+                experience_frames=np.searchsorted(times, experience_map.creation_times), links=experience_map.links,
+                template_ids=active[:, 0], experience_ids=active[:, 1], times=times, title=title, path=path)
 
 
 def _print_rows(rows: list[tuple[str, str]]) -> None:
@@ -279,11 +293,12 @@ def _run(args: argparse.Namespace) -> int:
     slam = _slam_from(args)
     out = args.out or Path("runs") / f"run-{Path(args.frames).resolve().name}-{time.strftime('%Y%m%d-%H%M%S')}"
     out.mkdir(parents=True, exist_ok=True)
-    estimates, self_motion, closures = [], [], []
+    estimates, self_motion, closures, active = [], [], [], []
     started = time.perf_counter()
     for index, path in enumerate(tqdm(frames, unit="frame", desc=Path(args.frames).name)):
         estimate = slam.step(load_frame(path), float(times[index]))
         estimates.append(estimate.pose)
+        active.append((estimate.template_id, estimate.experience_id))
         self_motion.append(slam.odometry_pose)
         if estimate.loop_closure:
             closures.append((index, estimate.experience_id))
@@ -302,6 +317,8 @@ def _run(args: argparse.Namespace) -> int:
             closure_frames=closures[:, 0], closure_experiences=closures[:, 1]))
     metrics["ms_per_frame"] = {"total": 1000 * elapsed / len(frames)}
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    _report(out / "report.png", Path(args.frames).name, times, None if groundtruth is None else groundtruth.poses,
+            estimates, self_motion, slam, np.array(active))
     rows = [("frames", str(len(frames))),
             ("map", f"{metrics['templates']} templates, {metrics['experiences']} experiences, "
                     f"{metrics['loop_closures']} loop closures")]

@@ -42,6 +42,7 @@ def test_short_drive_with_slam_writes_trajectories_and_summary(tmp_path, capsys,
         np.testing.assert_array_equal(other_times, times)
         assert np.all(np.isfinite(other_positions))
     experience_times, _, _ = read_tum(tmp_path / "experiences.tum")
+    assert (tmp_path / "report.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     summary = json.loads((tmp_path / "metrics.json").read_text())
     assert summary["frames"] == 30 and summary["world"] == "gen:2" and summary["odometry"] == odometry
     assert summary["distance_m"] > 0.5

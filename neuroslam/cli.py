@@ -42,6 +42,24 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _drive_options(parser: argparse.ArgumentParser, *, laps: int, camera: bool) -> None:
+    """Options of every command that drives a route."""
+    parser.add_argument("--route", help="route name, or a routes JSON file for an MJCF world (default: the first)")
+    parser.add_argument("--laps", type=_positive_int, default=laps, help=f"laps to drive (default: {laps})")
+    parser.add_argument("--speed", type=_positive_float, default=1.0, help="cruise speed in m/s (default: 1.0)")
+    if camera:
+        parser.add_argument("--width", type=_positive_int, default=160, help="image width in pixels (default: 160)")
+        parser.add_argument("--height", type=_positive_int, default=120, help="image height in pixels (default: 120)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the sensor noise (default: 0)")
+    parser.add_argument("--max-frames", type=_positive_int, help="stop after this many frames")
+
+
+def _slam_options(parser: argparse.ArgumentParser) -> None:
+    """Options choosing the NeuroSLAM parameters."""
+    parser.add_argument("--preset", default="sim", help="NeuroSLAM parameter preset (default: sim)")
+    parser.add_argument("--config", type=Path, help="TOML or JSON file of NeuroSLAM settings over the preset")
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="neuroslam",
@@ -59,18 +77,11 @@ def _parser() -> argparse.ArgumentParser:
     )
     drive.add_argument("world", nargs="?", default="carpark",
                        help="built-in world name, gen:SEED for a generated world, or an MJCF file (default: carpark)")
-    drive.add_argument("--route", help="route name, or a routes JSON file for an MJCF world (default: the first route)")
-    drive.add_argument("--laps", type=_positive_int, default=2, help="laps to drive (default: 2)")
-    drive.add_argument("--speed", type=_positive_float, default=1.0, help="cruise speed in m/s (default: 1.0)")
+    _drive_options(drive, laps=2, camera=True)
     drive.add_argument("--camera-rate", type=_positive_float, default=10.0, help="frames per second (default: 10)")
-    drive.add_argument("--width", type=_positive_int, default=160, help="image width in pixels (default: 160)")
-    drive.add_argument("--height", type=_positive_int, default=120, help="image height in pixels (default: 120)")
     drive.add_argument("--panoramic", action="store_true", help="stitch four cameras into a 360-degree strip")
-    drive.add_argument("--seed", type=int, default=0, help="seed of the sensor noise (default: 0)")
     drive.add_argument("--quality", choices=["fast", "high"], default="fast", help="visual profile (default: fast)")
-    drive.add_argument("--max-frames", type=_positive_int, help="stop after this many frames")
-    drive.add_argument("--preset", default="sim", help="NeuroSLAM parameter preset (default: sim)")
-    drive.add_argument("--config", type=Path, help="TOML or JSON file of NeuroSLAM settings over the preset")
+    _slam_options(drive)
     drive.add_argument("--odometry", choices=["visual", "wheel"], default="visual",
                        help="self-motion from the camera (visual odometry) or from the wheel encoders with the "
                        "camera's height rate (default: visual)")
@@ -87,8 +98,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--rate", type=_positive_float, default=10.0,
                      help="frames per second when the ground truth gives no times (default: 10)")
     run.add_argument("--max-frames", type=_positive_int, help="use only the first N frames")
-    run.add_argument("--preset", default="sim", help="NeuroSLAM parameter preset (default: sim)")
-    run.add_argument("--config", type=Path, help="TOML or JSON file of NeuroSLAM settings over the preset")
+    _slam_options(run)
     run.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
 
     record = commands.add_parser(
@@ -96,13 +106,7 @@ def _parser() -> argparse.ArgumentParser:
         description="Drive a route and save frames/NNNNNN.png, groundtruth.tum and wheel_odometry.tum, a dataset "
         "that neuroslam run (or any other SLAM system) can replay.")
     record.add_argument("world", help="built-in world name, gen:SEED, or an MJCF file")
-    record.add_argument("--route", help="route name (default: the first route)")
-    record.add_argument("--laps", type=_positive_int, default=1, help="laps to drive (default: 1)")
-    record.add_argument("--speed", type=_positive_float, default=1.0, help="cruise speed in m/s (default: 1.0)")
-    record.add_argument("--width", type=_positive_int, default=160, help="image width in pixels (default: 160)")
-    record.add_argument("--height", type=_positive_int, default=120, help="image height in pixels (default: 120)")
-    record.add_argument("--seed", type=int, default=0, help="seed of the sensor noise (default: 0)")
-    record.add_argument("--max-frames", type=_positive_int, help="stop after this many frames")
+    _drive_options(record, laps=1, camera=True)
     record.add_argument("--out", type=Path, required=True, help="dataset folder to write")
 
     calibrate = commands.add_parser(
@@ -111,12 +115,8 @@ def _parser() -> argparse.ArgumentParser:
         "fit its gains (speed and yaw scale by least squares; the height pipeline by the least height error) and "
         "write them as a TOML config file usable with --config.")
     calibrate.add_argument("world", help="built-in world name, gen:SEED, or an MJCF file")
-    calibrate.add_argument("--route", help="route name (default: the first route)")
-    calibrate.add_argument("--laps", type=_positive_int, default=1, help="laps to drive (default: 1)")
-    calibrate.add_argument("--seed", type=int, default=0, help="seed of the sensor noise (default: 0)")
-    calibrate.add_argument("--max-frames", type=_positive_int, help="stop after this many frames")
-    calibrate.add_argument("--preset", default="sim", help="preset whose camera and regions to calibrate")
-    calibrate.add_argument("--config", type=Path, help="TOML or JSON settings over the preset")
+    _drive_options(calibrate, laps=1, camera=False)
+    _slam_options(calibrate)
     calibrate.add_argument("--out", type=Path, required=True, help="TOML file to write")
 
     commands.add_parser("worlds", help="list the built-in worlds with their levels and routes",
@@ -136,10 +136,7 @@ def _drive(args: argparse.Namespace) -> int:
 
     slam = _slam_from(args)
 
-    route_name, routes_file = args.route, None
-    if args.route and args.route.endswith(".json"):
-        route_name, routes_file = None, args.route
-    world = sim.load_world(args.world, routes=routes_file)
+    world, route_name = _world_and_route(args)
     camera = sim.CameraConfig(width=args.width, height=args.height, panoramic=args.panoramic)
     drive = sim.ScriptedDrive(world, route=route_name, laps=args.laps, speed=args.speed,
                               camera_rate=args.camera_rate, max_frames=args.max_frames, seed=args.seed,
@@ -340,8 +337,8 @@ def _record(args: argparse.Namespace) -> int:
 
     from .tum import write_tum, yaw_quaternion
 
-    world = sim.load_world(args.world)
-    drive = sim.ScriptedDrive(world, route=args.route, laps=args.laps, speed=args.speed, max_frames=args.max_frames,
+    world, route = _world_and_route(args)
+    drive = sim.ScriptedDrive(world, route=route, laps=args.laps, speed=args.speed, max_frames=args.max_frames,
                               seed=args.seed, camera=sim.CameraConfig(width=args.width, height=args.height))
     out = args.out
     (out / "frames").mkdir(parents=True, exist_ok=True)
@@ -381,8 +378,9 @@ def _calibrate(args: argparse.Namespace) -> int:
                                   max_climb_rate=1e6)
     odometry = VisualOdometry(neutral, horizontal_fov=base.horizontal_fov, vertical_fov=base.vertical_fov,
                               panoramic=base.panoramic)
-    world = sim.load_world(args.world)
-    drive = sim.ScriptedDrive(world, route=args.route, laps=args.laps, max_frames=args.max_frames, seed=args.seed)
+    world, route = _world_and_route(args)
+    drive = sim.ScriptedDrive(world, route=route, laps=args.laps, speed=args.speed, max_frames=args.max_frames,
+                              seed=args.seed)
     rows = []
     previous = None
     with tqdm(total=int(drive.total_distance), unit="m", desc=f"calibrate {world.name}") as bar:
@@ -415,6 +413,16 @@ def _calibrate(args: argparse.Namespace) -> int:
         ("config", f"{args.out} (use with --config)"),
     ])
     return 0
+
+
+def _world_and_route(args: argparse.Namespace):
+    """The world and route name a command names (``--route`` may be a routes JSON file)."""
+    import sim
+
+    route, routes_file = args.route, None
+    if route and route.endswith(".json"):
+        route, routes_file = None, route
+    return sim.load_world(args.world, routes=routes_file), route
 
 
 def _metres(value: float | None) -> str:

@@ -37,15 +37,28 @@ def test_best_shift_finds_sub_pixel_shifts():
     assert vertical_shift(image[5:55], image[3:53], 5) == pytest.approx(2.0, abs=0.05)
 
 
-@pytest.mark.parametrize("columns", [3, -4])
-def test_yaw_rate_from_a_panned_panorama(columns):
+def pinhole_views(yaw_rate, count, fov, dt=0.1):
+    """A pinhole camera at a panorama's centre turning at ``yaw_rate`` (rad/s, counter-clockwise): each
+    pixel column looks at its own angle, so a rotation moves the image centre more than its edges."""
+    strip = panorama(shape=(120, 2880))  # 8 columns per degree, all around
+    focal = (WIDTH / 2) / math.tan(fov / 2)
+    offsets = np.arctan((np.arange(WIDTH) + 0.5 - WIDTH / 2) / focal)  # angle of each column, right positive
+    positions = np.arange(strip.shape[1] + 1)
+    wrapped = np.concatenate([strip, strip[:, :1]], axis=1)
+    for k in range(count):
+        # a column to the right looks clockwise of the heading; the strip's column index grows clockwise
+        angles = (-k * yaw_rate * dt + offsets) % (2 * math.pi)
+        columns = angles / (2 * math.pi) * strip.shape[1]
+        yield np.stack([np.interp(columns, positions, row) for row in wrapped]).astype(np.float32)
+
+
+@pytest.mark.parametrize("yaw_rate", [0.5, -1.2])
+def test_yaw_rate_of_a_turning_pinhole_camera(yaw_rate):
     fov = math.radians(80)
     odometry = VisualOdometry(VisualOdometryConfig(yaw_scale=1.0), horizontal_fov=fov, vertical_fov=math.radians(64))
-    rates = [odometry.step(frame, 0.1).yaw_rate for frame in frames(columns, 0, 12)][1:]
-    # content moving right (positive columns) means the camera turned left: counter-clockwise, positive
-    expected = columns * fov / WIDTH / 0.1
-    assert np.sign(np.median(rates)) == np.sign(columns)
-    assert np.median(rates) == pytest.approx(expected, rel=0.10)
+    rates = [odometry.step(view, 0.1).yaw_rate for view in pinhole_views(yaw_rate, 12, fov)][1:]
+    assert np.sign(np.median(rates)) == np.sign(yaw_rate)
+    assert np.median(rates) == pytest.approx(yaw_rate, rel=0.05)
 
 
 @pytest.mark.parametrize("rows", [1, -1])

@@ -115,7 +115,11 @@ class VisualOdometryConfig:
         profile_width: columns the rotation/translation profiles are resampled to.
         max_column_shift: largest profile shift searched, as a fraction of the profile width.
         max_row_shift: largest row shift searched, as a fraction of the height region's rows.
-        speed_scale: metres per frame per unit of mean absolute profile difference (mu of eq. 30).
+        speed_source: ``profile`` (eq. 30: the profile difference) or ``ground`` (the floor's downward
+            motion below the horizon, from the camera height: independent of the scenery's texture).
+        camera_height: the camera's height above the floor, m (for ``ground``).
+        speed_scale: gain on the speed: metres per frame per unit of mean absolute profile difference (mu
+            of eq. 30) for ``profile``, a correction near 1 for ``ground``.
         max_speed: speed clip, m/s (v_max of eq. 30). max_yaw_rate: yaw-rate clip, rad/s.
         max_climb_rate: climb-rate clip, m/s (v_max^h).
         pitch_leak: rate at which the integrated pitch relaxes to level, 1/s.
@@ -130,6 +134,8 @@ class VisualOdometryConfig:
     profile_width: int = 160
     max_column_shift: float = 0.2
     max_row_shift: float = 0.2
+    speed_source: str = "profile"
+    camera_height: float = 0.5
     speed_scale: float = 14.6
     max_speed: float = 2.5
     max_yaw_rate: float = 2.5
@@ -155,6 +161,9 @@ class VisualOdometryConfig:
         _positive(path, speed_scale=self.speed_scale, max_speed=self.max_speed, max_yaw_rate=self.max_yaw_rate,
                   max_climb_rate=self.max_climb_rate, climb_scale=self.climb_scale, yaw_scale=self.yaw_scale)
         _non_negative(path, pitch_leak=self.pitch_leak)
+        _require(f"{path}.speed_source", self.speed_source, self.speed_source in ("profile", "ground"),
+                 "must be 'profile' or 'ground'")
+        _positive(path, camera_height=self.camera_height)
         _require(f"{path}.pitch_flow_bias", self.pitch_flow_bias, _number(self.pitch_flow_bias),
                  "must be a number (rad/m)")
 

@@ -162,13 +162,6 @@ class AttractorNetwork:
             factors.append(factor.astype(self.kernel_spectrum.dtype))
         return factors
 
-    def shift_spectrum(self, displacement: Sequence[float]) -> np.ndarray:
-        """The spectrum of a shift by ``displacement`` cells (the product of :meth:`shift_factors`)."""
-        spectrum = np.ones((1,) * self.dimensions, dtype=self.kernel_spectrum.dtype)
-        for factor in self.shift_factors(displacement):
-            spectrum = spectrum * factor
-        return spectrum
-
     def step(self, displacement: Sequence[float] | None = None) -> None:
         """One frame of attractor dynamics with path integration by ``displacement`` cells (any size)."""
         spectrum = fft.rfftn(self.activity)

@@ -61,7 +61,6 @@ class LocalViewCells:
         self.panoramic = panoramic
         rows, columns = config.thumbnail
         self.radians_per_column = (2 * math.pi if panoramic else horizontal_fov) / columns
-        self._size = rows * columns
         self._descriptor_size = rows * (columns // 2 + 1)
         self._templates = np.empty((64, rows, columns), dtype=np.float32)
         self._descriptors = np.empty((64, self._descriptor_size), dtype=np.float32)

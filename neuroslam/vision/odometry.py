@@ -203,7 +203,6 @@ class VisualOdometry:
         max_columns = max(1, int(round(config.max_column_shift * width)))
         column_shift, _ = best_shift(previous["rotation"], profiles["rotation"], max_columns, circular=self.panoramic)
         radians_per_column = self._angle_per_sample
-        self.last_column_shift = column_shift
         yaw_change = config.yaw_scale * column_shift * radians_per_column
         yaw_change = float(np.clip(yaw_change, -config.max_yaw_rate * dt, config.max_yaw_rate * dt))
 

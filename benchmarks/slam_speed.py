@@ -37,7 +37,7 @@ def filled(templates: int, seed: int = 1) -> NeuroSLAM:
     for k in range(templates):
         thumbnail = rng.standard_normal((rows, columns)).astype(np.float32)
         slam.local_view.add(thumbnail)
-        slam._learn_view(k, 0.0)
+        slam._learn_view(k, slam.grid_cells.decode(), slam.head_direction.decode(), 0.0)
         slam.experience_map.integrate(1.0, 0.01, 0.0)
         slam.experience_map.update(k, rng.uniform(0, 36, 3), rng.uniform(0, 36, 2), float(k))
     return slam

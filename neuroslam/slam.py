@@ -153,16 +153,17 @@ class NeuroSLAM:
         view = self.local_view.observe(self.local_view.thumbnail(image_grey))
 
         self.head_direction.step(yaw_change, climb)
-        heading = self.head_direction.yaw()
+        direction_code = self.head_direction.decode()
+        heading = direction_code[0] * self.head_direction.yaw_cell_size
         self.grid_cells.step((distance * math.cos(heading), distance * math.sin(heading), climb))
+        grid_code = self.grid_cells.decode()
 
         if view.new:
-            self._learn_view(view.template_id, float(timestamp))
-        else:
+            self._learn_view(view.template_id, grid_code, direction_code, float(timestamp))
+        else:  # the injection moves the packets: read them out again
             self._recall_view(view.template_id, view.relative_yaw, float(timestamp))
-
-        grid_code = self.grid_cells.decode()
-        direction_code = self.head_direction.decode()
+            grid_code = self.grid_cells.decode()
+            direction_code = self.head_direction.decode()
         self.experience_map.integrate(distance, yaw_change, climb)
         update = self.experience_map.update(view.template_id, grid_code, direction_code, float(timestamp))
 
@@ -180,14 +181,14 @@ class NeuroSLAM:
             logger.debug("frame %d: loop closed at experience %d", self.frames, update.experience_id)
         return self.last
 
-    def _learn_view(self, template: int, time: float) -> None:
+    def _learn_view(self, template: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float) -> None:
         """Eq. 10: a new local view cell associates with the current grid and head-direction packets."""
         if template >= len(self._view_grid):
             self._view_grid = np.concatenate([self._view_grid, np.zeros_like(self._view_grid)])
             self._view_direction = np.concatenate([self._view_direction, np.zeros_like(self._view_direction)])
             self._view_decay = np.concatenate([self._view_decay, np.zeros_like(self._view_decay)])
-        self._view_grid[template] = self.grid_cells.decode()
-        self._view_direction[template] = self.head_direction.decode()
+        self._view_grid[template] = grid_code
+        self._view_direction[template] = direction_code
         self._view_decay[template] = (1.0, time)
 
     def _recall_view(self, template: int, relative_yaw: float, time: float) -> None:

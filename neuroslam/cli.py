@@ -60,6 +60,23 @@ def _slam_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", type=Path, help="TOML or JSON file of NeuroSLAM settings over the preset")
 
 
+def _record_option(parser: argparse.ArgumentParser) -> None:
+    """The ``--record`` option of the commands that run NeuroSLAM."""
+    parser.add_argument("--record", action="store_true",
+                        help="also write run.rrd into the output folder, a rerun recording of the run (camera, "
+                        "trajectories, experience map, cell activity, ids and error over time); open it with "
+                        "'rerun run.rrd'; needs: pip install \"neuroslam[record]\"")
+
+
+def _recorder(args: argparse.Namespace, out: Path, name: str):
+    """A :class:`~neuroslam.recording.RunRecorder` writing ``out/run.rrd`` if ``--record`` was given, else None."""
+    if not args.record:
+        return None
+    from .recording import RunRecorder
+
+    return RunRecorder(out / "run.rrd", name=name)
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="neuroslam",
@@ -86,6 +103,7 @@ def _parser() -> argparse.ArgumentParser:
                        help="self-motion from the camera (visual odometry) or from the wheel encoders with the "
                        "camera's height rate (default: visual)")
     drive.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
+    _record_option(drive)
 
     run = commands.add_parser(
         "run", help="run NeuroSLAM on a folder of recorded frames",
@@ -100,6 +118,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--max-frames", type=_positive_int, help="use only the first N frames")
     _slam_options(run)
     run.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
+    _record_option(run)
 
     record = commands.add_parser(
         "record", help="save a simulated drive as a dataset of frames and ground truth",
@@ -143,6 +162,7 @@ def _drive(args: argparse.Namespace) -> int:
                               camera=camera, quality=args.quality)
     out = args.out or Path("runs") / f"drive-{world.name.replace(':', '_')}-{time.strftime('%Y%m%d-%H%M%S')}"
     out.mkdir(parents=True, exist_ok=True)
+    recorder = _recorder(args, out, f"{world.name}/{drive.route.name}")
     times, truths, odometry, estimates, self_motion, closures, active = [], [], [], [], [], [], []
     slam_seconds = 0.0
     previous_time = None
@@ -166,7 +186,11 @@ def _drive(args: argparse.Namespace) -> int:
             if estimate.loop_closure:
                 closures.append((len(times) - 1, estimate.experience_id))
             self_motion.append(slam.odometry_pose)
+            if recorder is not None:
+                recorder.log_frame(frame.time, frame.image, slam, estimate, frame.ground_truth.pose)
             bar.update(min(int(frame.progress), bar.total) - bar.n)
+    if recorder is not None:
+        recorder.close()
     elapsed = time.perf_counter() - started
     times = np.array(times)
     positions = np.array([t.position for t in truths])
@@ -290,15 +314,22 @@ def _run(args: argparse.Namespace) -> int:
     slam = _slam_from(args)
     out = args.out or Path("runs") / f"run-{Path(args.frames).resolve().name}-{time.strftime('%Y%m%d-%H%M%S')}"
     out.mkdir(parents=True, exist_ok=True)
+    recorder = _recorder(args, out, Path(args.frames).resolve().name)
+    truth = None if groundtruth is None else groundtruth.poses
     estimates, self_motion, closures, active = [], [], [], []
     started = time.perf_counter()
     for index, path in enumerate(tqdm(frames, unit="frame", desc=Path(args.frames).name)):
-        estimate = slam.step(load_frame(path), float(times[index]))
+        image = load_frame(path)
+        estimate = slam.step(image, float(times[index]))
+        if recorder is not None:
+            recorder.log_frame(float(times[index]), image, slam, estimate, None if truth is None else truth[index])
         estimates.append(estimate.pose)
         active.append((estimate.template_id, estimate.experience_id))
         self_motion.append(slam.odometry_pose)
         if estimate.loop_closure:
             closures.append((index, estimate.experience_id))
+    if recorder is not None:
+        recorder.close()
     elapsed = time.perf_counter() - started
     estimates, self_motion = np.array(estimates), np.array(self_motion)
     _write_slam(out, times, estimates, self_motion, slam)

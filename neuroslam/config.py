@@ -115,9 +115,12 @@ class VisualOdometryConfig:
         profile_width: columns the rotation/translation profiles are resampled to.
         max_column_shift: largest profile shift searched, as a fraction of the profile width.
         max_row_shift: largest row shift searched, as a fraction of the height region's rows.
-        speed_source: ``profile`` (eq. 30: the profile difference) or ``ground`` (the floor's downward
-            motion below the horizon, from the camera height: independent of the scenery's texture).
+        planar_motion: where speed and yaw come from: ``profile`` (the paper's eqs. 27–30: profile shift and
+            difference) or ``ground`` (direct alignment of the floor under a ground-plane model, eqs. G1–G3
+            of :mod:`neuroslam.vision.ground_motion`: metric from the camera height, independent of the
+            scenery; pinhole cameras only).
         camera_height: the camera's height above the floor, m (for ``ground``).
+        camera_forward: the camera's distance ahead of the robot's turning axis, m (for ``ground``).
         speed_scale: gain on the speed: metres per frame per unit of mean absolute profile difference (mu
             of eq. 30) for ``profile``, a correction near 1 for ``ground``.
         max_speed: speed clip, m/s (v_max of eq. 30). max_yaw_rate: yaw-rate clip, rad/s.
@@ -134,16 +137,17 @@ class VisualOdometryConfig:
     profile_width: int = 160
     max_column_shift: float = 0.2
     max_row_shift: float = 0.2
-    speed_source: str = "profile"
+    planar_motion: str = "ground"
     camera_height: float = 0.5
-    speed_scale: float = 14.6
+    camera_forward: float = 0.1
+    speed_scale: float = 1.0
     max_speed: float = 2.5
     max_yaw_rate: float = 2.5
     max_climb_rate: float = 0.6
     pitch_leak: float = 0.01
     pitch_flow_bias: float = 0.012
     climb_scale: float = 0.4
-    yaw_scale: float = 0.9
+    yaw_scale: float = 1.0
 
     def __post_init__(self) -> None:
         self.validate()
@@ -161,8 +165,10 @@ class VisualOdometryConfig:
         _positive(path, speed_scale=self.speed_scale, max_speed=self.max_speed, max_yaw_rate=self.max_yaw_rate,
                   max_climb_rate=self.max_climb_rate, climb_scale=self.climb_scale, yaw_scale=self.yaw_scale)
         _non_negative(path, pitch_leak=self.pitch_leak)
-        _require(f"{path}.speed_source", self.speed_source, self.speed_source in ("profile", "ground"),
+        _require(f"{path}.planar_motion", self.planar_motion, self.planar_motion in ("profile", "ground"),
                  "must be 'profile' or 'ground'")
+        _require(f"{path}.camera_forward", self.camera_forward, _number(self.camera_forward)
+                 and abs(self.camera_forward) < 10, "must be a distance in metres")
         _positive(path, camera_height=self.camera_height)
         _require(f"{path}.pitch_flow_bias", self.pitch_flow_bias, _number(self.pitch_flow_bias),
                  "must be a number (rad/m)")
@@ -345,6 +351,9 @@ class Config:
         _require("vertical_fov", self.vertical_fov, _number(self.vertical_fov) and 0 < self.vertical_fov < math.pi,
                  "must be in (0, pi) radians")
         _require("panoramic", self.panoramic, isinstance(self.panoramic, bool), "must be true or false")
+        if self.panoramic and isinstance(self.odometry, VisualOdometryConfig):
+            _require("odometry.planar_motion", self.odometry.planar_motion, self.odometry.planar_motion == "profile",
+                     "must be 'profile' for a panoramic camera (the ground-plane model needs a pinhole camera)")
         for name, kind in _SECTIONS.items():
             section = getattr(self, name)
             _require(name, section, isinstance(section, kind), f"must be a {kind.__name__}")

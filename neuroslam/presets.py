@@ -32,6 +32,12 @@ def _paper_grid(global_inhibition: float, view_injection: float) -> GridCellConf
                           view_injection=view_injection)
 
 
+def _profile_odometry(**regions: Region) -> VisualOdometryConfig:
+    """The paper's intensity-profile odometry (eqs. 27–30), with the gains measured on the testbed's car park
+    (speed 14.6 m per unit of profile difference, yaw 0.9 of the geometric value)."""
+    return VisualOdometryConfig(planar_motion="profile", speed_scale=14.6, yaw_scale=0.9, **regions)
+
+
 def _sim() -> Config:
     """The testbed's camera (160×120, 80°): the defaults of :class:`~neuroslam.config.Config`."""
     return Config()
@@ -42,8 +48,8 @@ def _synper() -> Config:
     crop = Region(30 / 120, 90 / 120, 15 / 160, 145 / 160)
     return Config(
         horizontal_fov=math.radians(81.5), vertical_fov=math.radians(70.0),
-        odometry=VisualOdometryConfig(rotation_region=crop, translation_region=crop,
-                                      height_region=Region(10 / 120, 110 / 120, 10 / 160, 150 / 160)),
+        odometry=_profile_odometry(rotation_region=crop, translation_region=crop,
+                                   height_region=Region(10 / 120, 110 / 120, 10 / 160, 150 / 160)),
         grid_cells=_paper_grid(0.0002, 0.1),
         head_direction=HeadDirectionConfig(inhibition_variance=3.0, global_inhibition=0.0002, view_injection=0.001),
         experience_map=ExperienceMapConfig(correction=0.5, relaxation_passes=5),
@@ -55,8 +61,8 @@ def _synpan() -> Config:
     crop = Region(50 / 200, 150 / 200, 180 / 480, 300 / 480)
     return Config(
         horizontal_fov=2 * math.pi, vertical_fov=math.radians(50.0), panoramic=True,
-        odometry=VisualOdometryConfig(rotation_region=Region(50 / 200, 150 / 200, 0.0, 1.0), translation_region=crop,
-                                      height_region=crop),
+        odometry=_profile_odometry(rotation_region=Region(50 / 200, 150 / 200, 0.0, 1.0), translation_region=crop,
+                                   height_region=crop),
         local_view=LocalViewConfig(thumbnail=(20, 48), max_column_shift=23),
         grid_cells=_paper_grid(0.00025, 0.1),
         head_direction=HeadDirectionConfig(inhibition_variance=3.1, global_inhibition=0.0003, view_injection=0.01),
@@ -68,6 +74,7 @@ def _carpark() -> Config:
     # 480 × 270 perspective images, whole frame (Table 9)
     return Config(
         horizontal_fov=math.radians(75.0), vertical_fov=math.radians(60.0),
+        odometry=_profile_odometry(),
         local_view=LocalViewConfig(thumbnail=(27, 48)),
         grid_cells=_paper_grid(0.0002, 0.1),
         head_direction=HeadDirectionConfig(inhibition_variance=3.1, global_inhibition=0.0002, view_injection=0.1),

@@ -8,6 +8,9 @@
   yaw change. Content moving right means the camera turned left: positive yaw.
 - Speed (eq. 30): the mean absolute difference of the translation region's profiles at that shift,
   times ``speed_scale``, clipped to ``max_speed``.
+- With ``planar_motion = "ground"`` (the default of the ``sim`` preset) the speed and the yaw come instead
+  from aligning the floor below the horizon under a ground-plane model (:mod:`.ground_motion`, eqs.
+  G1–G3): metric from the camera height, the same in every scene.
 - Height (eqs. 31–32, measured rather than switched from ground truth): the height region, offset by
   the yaw shift, is matched against the previous frame's by the vertical shift minimising the mean
   absolute difference (eq. 31 over the whole region rather than its row profile, which measured too
@@ -26,6 +29,8 @@ from functools import lru_cache
 import numpy as np
 
 from ..config import VisualOdometryConfig
+from ..errors import InvalidParameterError
+from .ground_motion import GroundMotion
 from .preprocessing import crop, resize
 
 __all__ = ["SelfMotion", "VisualOdometry", "best_shift", "vertical_shift"]
@@ -120,6 +125,13 @@ class VisualOdometry:
         self._previous: dict[str, np.ndarray] | None = None
         self._equal_angle: dict[int, tuple[np.ndarray, float]] = {}
         self._angle_per_sample = 0.0
+        self._ground = None
+        if config.planar_motion == "ground":
+            if panoramic:
+                raise InvalidParameterError("odometry.planar_motion", config.planar_motion,
+                                            "needs a pinhole camera; use 'profile' for a panorama")
+            self._ground = GroundMotion(horizontal_fov=horizontal_fov, camera_height=config.camera_height,
+                                        camera_forward=config.camera_forward)
 
     def _equal_angle_columns(self, image_width: int) -> tuple[np.ndarray, float]:
         """Where to sample the rotation region's column profile so that its columns are equally spaced in
@@ -155,47 +167,13 @@ class VisualOdometry:
             "rotation": np.interp(positions, np.arange(len(columns)), columns).astype(np.float32),
             "translation": resize(translation, (1, width))[0],
             "height": resize(height, (max(4, height.shape[0] // 2), max(8, width // 2))),
-            "ground": grey_image,
         }
-
-    def _ground_distance(self, previous: np.ndarray, current: np.ndarray, turn: float) -> float:
-        """Distance driven, m, from the floor's downward motion below the horizon (``speed_source="ground"``).
-
-        A floor point at ``r`` pixels below the image centre lies ``h f / r`` metres ahead (camera height h,
-        focal length f in pixels); driving ``d`` metres forward moves it down by about ``r^2 d / (h f)``
-        pixels. In four bands between a third and four fifths of the way from the centre to the bottom,
-        the downward shift minimising the mean absolute difference (after undoing the yaw's sideways shift,
-        ``turn`` as a fraction of the width) gives ``d`` each; the median is returned. It depends on the
-        camera's geometry, not on how textured the floor is, unlike eq. 30's profile difference.
-        """
-        rows, columns = current.shape
-        half = rows / 2
-        focal = half / math.tan(self.vertical_fov / 2)
-        band = max(2, rows // 20)
-        search = max(2, int(round(rows * 0.075)))
-        sideways = int(round(turn * columns))
-        left, right = columns // 8, columns - columns // 8
-        estimates = []
-        for fraction in (0.35, 0.5, 0.65, 0.8):
-            centre = int(round(half + fraction * half))
-            if centre + band + search > rows:
-                continue
-            reference = previous[centre - band: centre + band, left:right]
-            start = max(0, left + sideways)
-            stop = min(columns, right + sideways)
-            reference = reference[:, start - (left + sideways): reference.shape[1] - ((right + sideways) - stop)]
-            window = current[centre - band: centre + band + search, start:stop]
-            differences = np.array([np.abs(window[s: s + 2 * band] - reference).mean() for s in range(search + 1)])
-            best = int(np.argmin(differences))
-            shift = _refine(np.arange(search + 1), differences, best)
-            offset = fraction * half + shift / 2
-            estimates.append(max(shift, 0.0) * self.config.camera_height * focal / offset**2)
-        return float(np.median(estimates)) if estimates else 0.0
 
     def step(self, grey_image: np.ndarray, dt: float) -> SelfMotion:
         """Self-motion since the previous image (zero for the first), for images ``dt`` seconds apart."""
         profiles = self._profiles(grey_image)
         previous, self._previous = self._previous, profiles
+        ground = None if self._ground is None else self._ground.step(grey_image)
         if previous is None or dt <= 0:
             return SelfMotion(0.0, 0.0, 0.0)
         config = self.config
@@ -215,9 +193,13 @@ class VisualOdometry:
             overlap_new = b[max(whole, 0): width + min(whole, 0)]
             overlap_old = a[max(-whole, 0): width + min(-whole, 0)]
             difference = float(np.abs(overlap_new - overlap_old).mean())
-        if config.speed_source == "ground" and not self.panoramic:
-            difference = self._ground_distance(previous["ground"], profiles["ground"], column_shift / width)
         distance = min(config.speed_scale * difference, config.max_speed * dt)
+        if ground is not None:  # eqs. G1–G3 instead of eqs. 27–30 for the planar motion
+            ground_distance, ground_turn = ground
+            distance = float(np.clip(config.speed_scale * ground_distance, -config.max_speed * dt,
+                                     config.max_speed * dt))
+            yaw_change = float(np.clip(config.yaw_scale * ground_turn, -config.max_yaw_rate * dt,
+                                       config.max_yaw_rate * dt))
 
         # eqs. 31–32: the region over the columns both frames share after the yaw shift
         old, new = previous["height"], profiles["height"]

@@ -1,0 +1,132 @@
+"""Ground-plane odometry (eqs. G1–G3) on a synthetic textured floor seen by the testbed's camera geometry,
+and in the testbed itself."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from neuroslam.config import VisualOdometryConfig
+from neuroslam.vision import VisualOdometry
+from neuroslam.vision.ground_motion import GroundMotion
+
+WIDTH, HEIGHT = 160, 120
+FOV = math.radians(80)
+CAMERA_HEIGHT, CAMERA_FORWARD = 0.5, 0.1
+TEXTURE_CELL = 0.01  # m per texture sample
+
+
+def floor_texture(seed=0, size=2000):
+    rng = np.random.default_rng(seed)
+    return ndimage.gaussian_filter(rng.random((size, size)), 3.0)
+
+
+def render(texture, x, y, yaw):
+    """The camera image of a robot at (x, y, yaw) on the textured floor (eq. G1 inverted); sky above."""
+    focal = (WIDTH / 2) / math.tan(FOV / 2)
+    v, u = np.mgrid[0:HEIGHT, 0:WIDTH].astype(float)
+    below = v - (HEIGHT / 2 - 0.5)
+    image = np.full((HEIGHT, WIDTH), 0.5)
+    floor = below > 1.0
+    depth = CAMERA_HEIGHT * focal / below[floor]
+    ahead = depth + CAMERA_FORWARD
+    left = -(u[floor] - (WIDTH / 2 - 0.5)) * depth / focal
+    world_x = x + math.cos(yaw) * ahead - math.sin(yaw) * left
+    world_y = y + math.sin(yaw) * ahead + math.cos(yaw) * left
+    centre = texture.shape[0] / 2
+    image[floor] = ndimage.map_coordinates(texture, [world_y / TEXTURE_CELL + centre, world_x / TEXTURE_CELL + centre],
+                                           order=1)
+    return image.astype(np.float32)
+
+
+def drive(texture, steps):
+    """Images along an arc path given per-frame (distance, turn) steps, and the true steps."""
+    x = y = yaw = 0.0
+    images = [render(texture, x, y, yaw)]
+    for distance, turn in steps:
+        x += distance * math.cos(yaw + turn / 2)
+        y += distance * math.sin(yaw + turn / 2)
+        yaw += turn
+        images.append(render(texture, x, y, yaw))
+    return images
+
+
+@pytest.mark.parametrize(("distance", "turn"), [(0.1, 0.0), (0.05, 0.04), (0.08, -0.06), (0.0, 0.1), (-0.05, 0.0)])
+def test_recovers_known_motion_on_a_textured_floor(distance, turn):
+    """Constant motion over 8 frames from rest: every frame's estimate within 1 mm and 0.5 mrad of the
+    truth (the bilinear resampling of the synthetic floor), the first within 3 mm and 1 mrad (the
+    constant-velocity prior of eq. G3 still pulls it towards rest)."""
+    motion = GroundMotion(horizontal_fov=FOV, camera_height=CAMERA_HEIGHT, camera_forward=CAMERA_FORWARD)
+    images = drive(floor_texture(), [(distance, turn)] * 8)
+    motion.step(images[0])
+    for index, image in enumerate(images[1:]):
+        estimated_distance, estimated_turn = motion.step(image)
+        assert estimated_distance == pytest.approx(distance, abs=3e-3 if index == 0 else 1e-3)
+        assert estimated_turn == pytest.approx(turn, abs=1e-3 if index == 0 else 5e-4)
+
+
+def test_follows_changing_motion_and_scales_with_camera_height():
+    """Accelerating and turning both ways: the estimate tracks each frame; a camera assumed twice as high
+    reads every distance twice as long (metric scale comes from the height alone)."""
+    steps = [(0.02 * k, 0.03 * math.sin(k / 2)) for k in range(1, 10)]
+    images = drive(floor_texture(1), steps)
+    motion = GroundMotion(horizontal_fov=FOV, camera_height=CAMERA_HEIGHT, camera_forward=CAMERA_FORWARD)
+    doubled = GroundMotion(horizontal_fov=FOV, camera_height=2 * CAMERA_HEIGHT, camera_forward=CAMERA_FORWARD)
+    motion.step(images[0])
+    doubled.step(images[0])
+    for (distance, turn), image in zip(steps, images[1:], strict=True):
+        estimated_distance, estimated_turn = motion.step(image)
+        assert estimated_distance == pytest.approx(distance, abs=2e-3)
+        assert estimated_turn == pytest.approx(turn, abs=1e-3)
+        assert doubled.step(image)[0] == pytest.approx(2 * distance, abs=4e-3)
+
+
+def test_a_blank_floor_keeps_the_previous_motion():
+    """Between two blank images the data say nothing and the constant-velocity prior (eq. G3) repeats the
+    last motion exactly."""
+    images = drive(floor_texture(2), [(0.1, 0.02)] * 3)
+    motion = GroundMotion(horizontal_fov=FOV, camera_height=CAMERA_HEIGHT, camera_forward=CAMERA_FORWARD)
+    for image in images:
+        motion.step(image)
+    blank = np.full((HEIGHT, WIDTH), 0.5, dtype=np.float32)
+    last = motion.step(blank)
+    assert motion.step(blank) == pytest.approx(last, abs=1e-12)
+
+
+def test_panoramic_cameras_need_the_profile_method():
+    from neuroslam.errors import InvalidParameterError
+
+    with pytest.raises(InvalidParameterError, match="planar_motion"):
+        VisualOdometry(VisualOdometryConfig(planar_motion="ground"), horizontal_fov=2 * math.pi, panoramic=True)
+
+
+@pytest.mark.slow
+def test_testbed_distance_and_turns_without_calibration():
+    """The car park's first 600 frames, with no gains fitted (speed_scale = yaw_scale = 1): on level floor
+    (true pitch below 1 degree for the frame and the two before it) the distance and the total turn
+    within 3 % of the truth. Ramp transitions are excluded on purpose: where the floor bends, the plane
+    model reads up to 0.3 m wrong for a few frames (see the module docstring)."""
+    import sim
+    from neuroslam.vision import grey
+
+    odometry = VisualOdometry(VisualOdometryConfig(), horizontal_fov=FOV,
+                              vertical_fov=2 * math.atan(math.tan(FOV / 2) * 0.75))
+    rows, pitches, previous = [], [], None
+    with sim.ScriptedDrive("carpark", max_frames=600, seed=0) as stream:
+        for frame in stream:
+            motion = odometry.step(grey(frame.image), 0.1 if previous is not None else 0.0)
+            truth = frame.ground_truth
+            pitches.append(abs(truth.pitch))
+            if previous is not None and max(pitches[-3:]) < math.radians(1):
+                rows.append((motion.forward_speed * 0.1, motion.yaw_rate * 0.1,
+                             float(np.linalg.norm(truth.position[:2] - previous.position[:2])),
+                             math.remainder(truth.yaw - previous.yaw, math.tau)))
+            previous = truth
+    distance, turn, true_distance, true_turn = np.array(rows).T
+    assert len(rows) > 400
+    assert distance.sum() / true_distance.sum() == pytest.approx(1.0, abs=0.03)
+    turning = np.abs(true_turn) > 0.01
+    assert abs(true_turn[turning]).sum() > 1.5  # the stretch has real turns
+    assert np.sum(turn[turning] * np.sign(true_turn[turning])) / abs(true_turn[turning]).sum() == pytest.approx(
+        1.0, abs=0.03)

@@ -52,6 +52,22 @@ def test_level_accuracy_and_false_closures():
     assert false_loop_closures(now, then, np.array([0, 0, 1]), np.array([0, 0, 0])) == 2
 
 
+def test_run_metrics_counts_true_closures_per_level():
+    """Six frames on two levels; closures at frames 3 (back at frame 0's place: true, level 0), 4 (3 m from
+    frame 1: false) and 5 (over frame 2 but one level up: false)."""
+    from neuroslam.evaluation import run_metrics
+
+    truth = np.array([[0, 0, 0, 0], [5, 0, 0, 0], [10, 0, 0, 0], [0.5, 0, 0, 0], [8, 0, 0, 0], [10, 0, 3, 0]], float)
+    levels = np.array([0, 0, 0, 0, 0, 1])
+    metrics = run_metrics(truth=truth, true_levels=levels, levels=np.array([0.0, 3.0]), estimate=truth,
+                          odometry=truth, experience_positions=truth[:3, :3], experience_frames=np.array([0, 1, 2]),
+                          closure_frames=np.array([3, 4, 5]), closure_experiences=np.array([0, 1, 2]))
+    assert metrics["loop_closures"] == 3
+    assert metrics["false_loop_closures"] == 2
+    assert metrics["true_loop_closures_per_level"] == {"0": 1, "1": 0}
+    assert metrics["level_accuracy"] == 1.0
+
+
 # --- against evo (github.com/MichaelGrupp/evo), the reference implementation of these metrics, where installed ---
 
 STEP = 0.345  # m of true travel per frame: a 10 m segment is 29 frames (10.005 m), far from a tie (28 = 9.66 m)

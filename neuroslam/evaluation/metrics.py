@@ -87,8 +87,9 @@ def run_metrics(
         closure_frames, closure_experiences: frame and re-entered experience of every loop closure.
 
     Returns ``ate_rmse_m`` and ``ate_se3_rmse_m`` ({slam, odometry}), ``rpe_rmse_m`` ({slam, odometry},
-    10 m segments), ``map_rmse_m``, ``loop_closures``, ``false_loop_closures`` and ``level_accuracy``;
-    a number that needs more frames than the run has is None.
+    10 m segments), ``map_rmse_m``, ``loop_closures``, ``false_loop_closures``,
+    ``true_loop_closures_per_level`` ({level index as text: closures within 2 m on that level}, None without
+    levels) and ``level_accuracy``; a number that needs more frames than the run has is None.
     """
     positions = truth[:, :3]
     enough = len(truth) >= 3
@@ -104,9 +105,14 @@ def run_metrics(
     made = positions[experience_frames]
     result["map_rmse_m"] = _rmse(align(experience_positions, made), made) if len(made) >= 3 else None
     result["loop_closures"] = int(len(closure_frames))
-    result["false_loop_closures"] = false_loop_closures(
-        positions[closure_frames], positions[experience_frames[closure_experiences]],
-        true_levels[closure_frames], true_levels[experience_frames[closure_experiences]])
+    now, then = closure_frames, experience_frames[closure_experiences]
+    result["false_loop_closures"] = false_loop_closures(positions[now], positions[then], true_levels[now],
+                                                        true_levels[then])
+    true_closure = ((np.linalg.norm(positions[now] - positions[then], axis=1) <= 2.0)
+                    & (true_levels[now] == true_levels[then]))
+    result["true_loop_closures_per_level"] = (
+        {str(level): int(np.sum(true_closure & (true_levels[now] == level))) for level in range(len(levels))}
+        if known_levels else None)
     result["level_accuracy"] = (level_accuracy(align(estimate[:, :3], positions)[:, 2], true_levels, levels)
                                 if enough and known_levels else None)
     return result

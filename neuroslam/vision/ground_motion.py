@@ -19,9 +19,11 @@ before. The motion (d, w) minimises the robust (Huber) photometric error
 
 over the floor pixels below the horizon (pi: eq. G1; (d0, w0): the previous frame's motion, a
 constant-velocity prior that keeps the estimate where the floor shows too little texture). It is solved
-by Gauss–Newton, coarse to fine (half, then full resolution), starting from (d0, w0). Metric scale comes
-from the camera height alone: no gain to calibrate per scene. Obstacles standing on the floor break the
-model locally and are down-weighted by the Huber weights.
+by Gauss–Newton, coarse to fine (half, then full resolution), starting from (d0, w0); when the solution
+sends more than a fifth of the floor pixels out of the previous image (a wrong minimum, which the prior
+would otherwise carry on to the next frames), it is solved again from rest and the one that keeps more
+of the floor in view is taken. Metric scale comes from the camera height alone: no gain to calibrate per
+scene. Obstacles standing on the floor break the model locally and are down-weighted by the Huber weights.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ __all__ = ["GroundMotion"]
 
 _PRIOR_DISTANCE = 0.02  # m per frame, s_d of eq. G3 (a 1.5 m/s^2 drive changes speed ~0.015 m per frame at 10 Hz)
 _PRIOR_TURN = 0.05  # rad per frame, s_w of eq. G3
+_LOST_SUPPORT = 0.8  # below this share of floor pixels still in view, the solution is suspect
 
 
 class GroundMotion:
@@ -68,6 +71,7 @@ class GroundMotion:
         self.levels = levels
         self.motion = np.zeros(2)  # (d, w) of the last frame: m, rad
         self.support = 0.0  # share of floor pixels that stayed in view and were used, last frame
+        self.information = np.zeros((2, 2))  # the data's Gauss–Newton matrix for (d, w), last frame
         self._previous: list[np.ndarray] | None = None
         self._geometry: dict[tuple[int, int], tuple] = {}
 
@@ -98,7 +102,8 @@ class GroundMotion:
         focal = (columns / 2) / math.tan(self.horizontal_fov / 2)
         centre_u, centre_v = columns / 2 - 0.5, rows / 2 - 0.5
         first = int(math.ceil(centre_v + self.first_row * rows / 2))
-        v, u = np.mgrid[first: rows - 1, 1: columns - 1]
+        step = 2 if columns > 100 else 1  # every other column at full resolution: half the cost, as accurate
+        v, u = np.mgrid[first: rows - 1, 1: columns - 1: step]
         u, v = u.ravel(), v.ravel()
         depth = self.camera_height * focal / (v - centre_v)  # eq. G1 solved for x - a
         ground = np.stack([depth + self.camera_forward, -(u - centre_u) * depth / focal])
@@ -112,12 +117,23 @@ class GroundMotion:
         previous, self._previous = self._previous, pyramid
         if previous is None:
             return 0.0, 0.0
-        prior = self.motion.copy()
-        distance, turn = prior
-        for old, new in zip(previous, pyramid, strict=True):
-            distance, turn = self._align(old, new, distance, turn, prior)
+        distance, turn = self._solve(previous, pyramid, self.motion.copy())
+        if self.support < _LOST_SUPPORT:  # the floor left the image under this motion: start again from rest
+            support = self.support
+            again = self._solve(previous, pyramid, np.zeros(2))
+            if self.support > support:
+                distance, turn = again
+            else:
+                self.support = support
         self.motion = np.array([distance, turn])
         return float(distance), float(turn)
+
+    def _solve(self, previous: list[np.ndarray], current: list[np.ndarray], prior: np.ndarray) -> tuple[float, float]:
+        """Eq. G3 coarse to fine from the prior."""
+        distance, turn = prior
+        for old, new in zip(previous, current, strict=True):
+            distance, turn = self._align(old, new, distance, turn, prior)
+        return distance, turn
 
     def _align(self, old: np.ndarray, new: np.ndarray, distance: float, turn: float, prior: np.ndarray
                ) -> tuple[float, float]:
@@ -158,8 +174,8 @@ class GroundMotion:
             size = np.abs(residual)
             weight = np.where(size < self.robust_scale, 1.0, self.robust_scale / np.maximum(size, 1e-12)) * visible
             wd, wt = weight * jacobian_distance, weight * jacobian_turn
-            normal = np.array([[wd @ jacobian_distance, wd @ jacobian_turn],
-                               [wd @ jacobian_turn, wt @ jacobian_turn]]) + np.diag(prior_weights)
+            data = np.array([[wd @ jacobian_distance, wd @ jacobian_turn], [wd @ jacobian_turn, wt @ jacobian_turn]])
+            normal = data + np.diag(prior_weights)
             gradient = np.array([wd @ residual, wt @ residual]) + prior_weights * (np.array([distance, turn]) - prior)
             try:
                 delta = -np.linalg.solve(normal, gradient)
@@ -168,6 +184,7 @@ class GroundMotion:
             distance += float(delta[0])
             turn += float(delta[1])
             self.support = float(visible.mean())
+            self.information = data
             if abs(delta[0]) < 1e-4 and abs(delta[1]) < 1e-5:
                 break
         return distance, turn

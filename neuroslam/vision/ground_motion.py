@@ -81,8 +81,9 @@ class GroundMotion:
         self._previous = None
 
     def _pyramid(self, image: np.ndarray) -> list[np.ndarray]:
-        """The image at 1/2^k resolution (means of 2^k x 2^k blocks), coarsest first, each blurred; float64."""
-        full = image.astype(np.float64)
+        """The image at 1/2^k resolution (means of 2^k x 2^k blocks), coarsest first, each blurred, with its
+        central-difference gradients; float32."""
+        full = image.astype(np.float32)
         images = []
         for level in range(self.levels - 1, -1, -1):
             factor = 2**level
@@ -106,7 +107,7 @@ class GroundMotion:
         v, u = np.mgrid[first: rows - 1, 1: columns - 1: step]
         u, v = u.ravel(), v.ravel()
         depth = self.camera_height * focal / (v - centre_v)  # eq. G1 solved for x - a
-        ground = np.stack([depth + self.camera_forward, -(u - centre_u) * depth / focal])
+        ground = np.stack([depth + self.camera_forward, -(u - centre_u) * depth / focal]).astype(np.float32)
         cached = (focal, centre_u, centre_v, v * columns + u, ground)
         self._geometry[shape] = cached
         return cached
@@ -131,20 +132,24 @@ class GroundMotion:
     def _solve(self, previous: list[np.ndarray], current: list[np.ndarray], prior: np.ndarray) -> tuple[float, float]:
         """Eq. G3 coarse to fine from the prior."""
         distance, turn = prior
-        for old, new in zip(previous, current, strict=True):
-            distance, turn = self._align(old, new, distance, turn, prior)
+        for level, (old, new) in enumerate(zip(previous, current, strict=True)):
+            finest = level == len(current) - 1  # coarser levels only start the next: stop them sooner
+            distance, turn = self._align(old, new, distance, turn, prior, tolerance=1.0 if finest else 5.0)
         return distance, turn
 
-    def _align(self, old: np.ndarray, new: np.ndarray, distance: float, turn: float, prior: np.ndarray
-               ) -> tuple[float, float]:
-        """Gauss–Newton on eq. G3 at one resolution."""
+    def _align(self, old: np.ndarray, new: np.ndarray, distance: float, turn: float, prior: np.ndarray, *,
+               tolerance: float = 1.0) -> tuple[float, float]:
+        """Gauss–Newton on eq. G3 at one resolution, until an update is below ``tolerance`` × (0.1 mm, 0.01 mrad)."""
         focal, centre_u, centre_v, indices, ground = self._floor(new.shape[1:])
         rows, columns = old.shape[1:]
         target = new[0].ravel()[indices]
         flat = old.reshape(3, -1)
         qx, qy = ground
         h, a = self.camera_height, self.camera_forward
-        prior_weights = np.array([(self.robust_scale / _PRIOR_DISTANCE) ** 2, (self.robust_scale / _PRIOR_TURN) ** 2])
+        prior_distance, prior_turn = float(prior[0]), float(prior[1])
+        weight_distance = (self.robust_scale / _PRIOR_DISTANCE) ** 2
+        weight_turn = (self.robust_scale / _PRIOR_TURN) ** 2
+        limit_u, limit_v = columns - 1.001, rows - 1.001
         for _ in range(self.iterations):
             c, s = math.cos(turn), math.sin(turn)
             ch, sh = math.cos(turn / 2), math.sin(turn / 2)
@@ -152,12 +157,12 @@ class GroundMotion:
             py = distance * sh + s * qx + c * qy
             ahead = px - a
             visible = ahead > 0.2
-            ahead = np.where(visible, ahead, 1.0)
-            u = centre_u - focal * py / ahead  # eq. G1
-            v = centre_v + focal * h / ahead
-            visible &= (u >= 0) & (u < columns - 1) & (v >= 0) & (v < rows - 1)
-            u = np.clip(u, 0, columns - 1.001)
-            v = np.clip(v, 0, rows - 1.001)
+            inverse = 1.0 / np.maximum(ahead, 0.2)
+            u = centre_u - focal * py * inverse  # eq. G1
+            v = centre_v + focal * h * inverse
+            visible &= (u >= 0) & (u <= limit_u) & (v >= 0) & (v <= limit_v)
+            np.clip(u, 0, limit_u, out=u)
+            np.clip(v, 0, limit_v, out=v)
             u0, v0 = u.astype(np.intp), v.astype(np.intp)
             fu, fv = u - u0, v - v0
             corner = v0 * columns + u0
@@ -167,24 +172,25 @@ class GroundMotion:
             intensity, gradient_u, gradient_v = top + fv * (bottom_left + fu * (bottom_right - bottom_left) - top)
             residual = intensity - target
             # chain rule through eq. G1 and G2
-            d_px = gradient_u * focal * py / ahead**2 - gradient_v * focal * h / ahead**2
-            d_py = -gradient_u * focal / ahead
+            d_py = -focal * gradient_u * inverse
+            d_px = -(d_py * py + focal * h * gradient_v * inverse) * inverse
             jacobian_distance = d_px * ch + d_py * sh
             jacobian_turn = d_px * (-distance / 2 * sh - s * qx - c * qy) + d_py * (distance / 2 * ch + c * qx - s * qy)
             size = np.abs(residual)
-            weight = np.where(size < self.robust_scale, 1.0, self.robust_scale / np.maximum(size, 1e-12)) * visible
+            weight = self.robust_scale / np.maximum(size, self.robust_scale)  # Huber: 1 inside, scale / |r| outside
+            weight *= visible
             wd, wt = weight * jacobian_distance, weight * jacobian_turn
-            data = np.array([[wd @ jacobian_distance, wd @ jacobian_turn], [wd @ jacobian_turn, wt @ jacobian_turn]])
-            normal = data + np.diag(prior_weights)
-            gradient = np.array([wd @ residual, wt @ residual]) + prior_weights * (np.array([distance, turn]) - prior)
-            try:
-                delta = -np.linalg.solve(normal, gradient)
-            except np.linalg.LinAlgError:  # pragma: no cover - the prior keeps the system regular
-                break
-            distance += float(delta[0])
-            turn += float(delta[1])
+            a11, a12, a22 = float(wd @ jacobian_distance), float(wd @ jacobian_turn), float(wt @ jacobian_turn)
+            b1 = float(wd @ residual) + weight_distance * (distance - prior_distance)
+            b2 = float(wt @ residual) + weight_turn * (turn - prior_turn)
+            n11, n22 = a11 + weight_distance, a22 + weight_turn
+            determinant = n11 * n22 - a12 * a12  # positive: the prior keeps the 2 x 2 system regular
+            delta_distance = -(n22 * b1 - a12 * b2) / determinant
+            delta_turn = -(n11 * b2 - a12 * b1) / determinant
+            distance += delta_distance
+            turn += delta_turn
             self.support = float(visible.mean())
-            self.information = data
-            if abs(delta[0]) < 1e-4 and abs(delta[1]) < 1e-5:
+            self.information = np.array([[a11, a12], [a12, a22]])
+            if abs(delta_distance) < 1e-4 * tolerance and abs(delta_turn) < 1e-5 * tolerance:
                 break
         return distance, turn

@@ -297,13 +297,14 @@ def _run(args: argparse.Namespace) -> int:
     """NeuroSLAM on a folder of recorded frames."""
     from tqdm import tqdm
 
-    from .datasets import DatasetError, frame_times, list_frames, load_frame, read_groundtruth
+    from .datasets import DatasetError, check_frame_sizes, frame_times, list_frames, load_frame, read_groundtruth
     from .evaluation import run_metrics
 
     frames = list_frames(args.frames)
     groundtruth = read_groundtruth(args.groundtruth) if args.groundtruth is not None else None
     if args.max_frames is not None:
         frames = frames[: args.max_frames]
+    check_frame_sizes(frames)
     if groundtruth is not None:
         if len(groundtruth.positions) < len(frames):
             raise DatasetError(f"ground truth {str(args.groundtruth)!r}: {len(groundtruth.positions)} rows for "

@@ -17,7 +17,7 @@ import numpy as np
 
 from .errors import NeuroSLAMError
 
-__all__ = ["DatasetError", "GroundTruth", "list_frames", "load_frame", "read_groundtruth"]
+__all__ = ["DatasetError", "GroundTruth", "check_frame_sizes", "list_frames", "load_frame", "read_groundtruth"]
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
 
@@ -58,6 +58,31 @@ def list_frames(folder: str | Path) -> list[Path]:
     if not frames:
         raise DatasetError(f"frames folder {str(folder)!r}: no PNG or JPEG images in it")
     return sorted(frames, key=_natural_key)
+
+
+def check_frame_sizes(paths: list[Path]) -> tuple[int, int]:
+    """The (width, height) in pixels shared by every frame, read from the file headers only.
+
+    Raises:
+        DatasetError: naming the first frame that is unreadable or whose size differs from the first's.
+    """
+    from PIL import Image, UnidentifiedImageError
+
+    size = None
+    for path in paths:
+        try:
+            with Image.open(path) as image:
+                current = image.size
+        except (OSError, UnidentifiedImageError) as error:
+            raise DatasetError(f"frame {str(path)!r}: not a readable image ({error})") from None
+        if size is None:
+            size = current
+        elif current != size:
+            raise DatasetError(f"frame {str(path)!r}: {current[0]}x{current[1]} pixels, but the first frame "
+                               f"{str(paths[0])!r} is {size[0]}x{size[1]}")
+    if size is None:
+        raise DatasetError("no frames to check")
+    return size
 
 
 def load_frame(path: Path) -> np.ndarray:

@@ -72,6 +72,29 @@ def test_bad_input_gives_one_line_and_exit_code_2(args, text):
     assert text in lines[-1]
 
 
+def test_bad_files_give_one_line_and_exit_code_2(tmp_path):
+    """An unreadable frames folder, frames of different sizes, an invalid config value: one line, exit 2."""
+    from PIL import Image
+
+    mixed = tmp_path / "mixed"
+    mixed.mkdir()
+    Image.fromarray(np.zeros((120, 160, 3), np.uint8)).save(mixed / "000000.png")
+    Image.fromarray(np.zeros((60, 80, 3), np.uint8)).save(mixed / "000001.png")
+    config = tmp_path / "bad.toml"
+    config.write_text("[grid_cells]\nsize = [0, 48, 16]\n")
+    cases = [
+        (["run", str(tmp_path / "missing")], "missing"),
+        (["run", str(mixed)], "000001.png': 80x60 pixels, but the first frame"),
+        (["drive", "carpark", "--max-frames", "2", "--config", str(config)], "grid_cells.size"),
+    ]
+    for args, text in cases:
+        result = run(*args, "--out", str(tmp_path / "out"))
+        assert result.returncode == 2, (args, result.stderr)
+        assert "Traceback" not in result.stderr
+        lines = result.stderr.strip().splitlines()
+        assert len(lines) == 1 and text in lines[0], (args, result.stderr)
+
+
 def test_calibrate_writes_a_config_that_loads(tmp_path, capsys):
     from neuroslam import load_config
 

@@ -71,14 +71,8 @@ class GroundMotion:
         self.levels = levels
         self.motion = np.zeros(2)  # (d, w) of the last frame: m, rad
         self.support = 0.0  # share of floor pixels that stayed in view and were used, last frame
-        self.information = np.zeros((2, 2))  # the data's Gauss–Newton matrix for (d, w), last frame
         self._previous: list[np.ndarray] | None = None
         self._geometry: dict[tuple[int, int], tuple] = {}
-
-    def reset(self) -> None:
-        """Forget the previous image and motion."""
-        self.motion = np.zeros(2)
-        self._previous = None
 
     def _pyramid(self, image: np.ndarray) -> list[np.ndarray]:
         """The image at 1/2^k resolution (means of 2^k x 2^k blocks), coarsest first, each blurred, with its
@@ -190,7 +184,6 @@ class GroundMotion:
             distance += delta_distance
             turn += delta_turn
             self.support = float(visible.mean())
-            self.information = np.array([[a11, a12], [a12, a22]])
             if abs(delta_distance) < 1e-4 * tolerance and abs(delta_turn) < 1e-5 * tolerance:
                 break
         return distance, turn

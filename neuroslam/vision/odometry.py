@@ -179,27 +179,27 @@ class VisualOdometry:
         config = self.config
         width = config.profile_width
         max_columns = max(1, int(round(config.max_column_shift * width)))
+        # the profile shift also aligns the height region (eqs. 31–32) when the planar motion comes from the floor
         column_shift, _ = best_shift(previous["rotation"], profiles["rotation"], max_columns, circular=self.panoramic)
-        radians_per_column = self._angle_per_sample
-        yaw_change = config.yaw_scale * column_shift * radians_per_column
-        yaw_change = float(np.clip(yaw_change, -config.max_yaw_rate * dt, config.max_yaw_rate * dt))
-
-        # eq. 30: profile difference at the rotation's shift
-        whole = int(round(column_shift))
-        a, b = previous["translation"], profiles["translation"]
-        if self.panoramic:
-            difference = float(np.abs(np.roll(b, -whole) - a).mean())
-        else:
-            overlap_new = b[max(whole, 0): width + min(whole, 0)]
-            overlap_old = a[max(-whole, 0): width + min(-whole, 0)]
-            difference = float(np.abs(overlap_new - overlap_old).mean())
-        distance = min(config.speed_scale * difference, config.max_speed * dt)
         if ground is not None:  # eqs. G1–G3 instead of eqs. 27–30 for the planar motion
             ground_distance, ground_turn = ground
             distance = float(np.clip(config.speed_scale * ground_distance, -config.max_speed * dt,
                                      config.max_speed * dt))
             yaw_change = float(np.clip(config.yaw_scale * ground_turn, -config.max_yaw_rate * dt,
                                        config.max_yaw_rate * dt))
+        else:
+            yaw_change = config.yaw_scale * column_shift * self._angle_per_sample
+            yaw_change = float(np.clip(yaw_change, -config.max_yaw_rate * dt, config.max_yaw_rate * dt))
+            # eq. 30: profile difference at the rotation's shift
+            whole = int(round(column_shift))
+            a, b = previous["translation"], profiles["translation"]
+            if self.panoramic:
+                difference = float(np.abs(np.roll(b, -whole) - a).mean())
+            else:
+                overlap_new = b[max(whole, 0): width + min(whole, 0)]
+                overlap_old = a[max(-whole, 0): width + min(-whole, 0)]
+                difference = float(np.abs(overlap_new - overlap_old).mean())
+            distance = min(config.speed_scale * difference, config.max_speed * dt)
 
         # eqs. 31–32: the region over the columns both frames share after the yaw shift
         old, new = previous["height"], profiles["height"]

@@ -46,6 +46,10 @@ def _number(value: object) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
+RELAXATIONS = ("passes", "least-squares")
+LOOP_CLOSURES = ("code", "confirmed")
+
+
 def _require(path: str, value: object, ok: bool, reason: str) -> None:
     if not ok:
         raise InvalidParameterError(path, value, reason)
@@ -301,6 +305,22 @@ class ExperienceMapConfig:
         correction: psi of eq. 25, per relaxation pass (scaled by each experience's number of links).
         relaxation_passes: passes of eq. 25 after a loop closure.
         idle_passes: passes of eq. 25 on frames without a loop closure.
+        relaxation: ``passes`` (the paper: ``relaxation_passes`` / ``idle_passes`` of eq. 25 per frame)
+            or ``least-squares`` (the map those passes converge towards, solved directly after each loop
+            closure; see :meth:`neuroslam.experience_map.ExperienceMap._solve`).
+        loop_closure: ``code`` (the paper: re-entering any experience whose conjunctive code matches,
+            eq. 22, closes a loop) or ``confirmed`` (the rule of the grid-network paper, section III: a
+            loop closes only when more than ``confirmation_matches - 1`` of the last
+            ``confirmation_window`` frames matched familiar views consistently, i.e. at old experiences
+            laid out as the odometry of those frames says, within ``confirmation_tolerance`` metres;
+            a confirmed place also moves both networks' packets to its codes).
+        confirmation_window, confirmation_matches: frames looked back, and how many must agree.
+        confirmation_spacing: m; 0 counts every frame (the paper), a distance keeps one frame per that
+            much travel in the window, so a view seen for many frames counts once per spacing.
+        confirmation_tolerance: m, how far a frame's matched experience may lie from where the
+            hypothesis puts it. confirmation_age: s, experiences younger than this are not a revisit.
+        confirmation_drift: m per m driven since the last loop closure: a hypothesis must lie within
+            ``confirmation_tolerance`` plus this times that distance of the current estimate.
     """
 
     view_weight: float = 10.0
@@ -310,6 +330,14 @@ class ExperienceMapConfig:
     correction: float = 0.5
     relaxation_passes: int = 5
     idle_passes: int = 1
+    relaxation: str = "passes"
+    loop_closure: str = "code"
+    confirmation_window: int = 10
+    confirmation_matches: int = 7
+    confirmation_spacing: float = 0.0
+    confirmation_tolerance: float = 2.0
+    confirmation_age: float = 30.0
+    confirmation_drift: float = 0.1
 
     def __post_init__(self) -> None:
         self.validate()
@@ -324,6 +352,20 @@ class ExperienceMapConfig:
             value = getattr(self, name)
             _require(f"{path}.{name}", value, isinstance(value, int) and 0 <= value <= 1000,
                      "must be an integer from 0 to 1000")
+        _require(f"{path}.relaxation", self.relaxation, self.relaxation in RELAXATIONS,
+                 f"must be one of {', '.join(RELAXATIONS)}")
+        _require(f"{path}.loop_closure", self.loop_closure, self.loop_closure in LOOP_CLOSURES,
+                 f"must be one of {', '.join(LOOP_CLOSURES)}")
+        window = self.confirmation_window
+        _require(f"{path}.confirmation_window", window, isinstance(window, int) and 1 <= window <= 1000,
+                 "must be an integer from 1 to 1000")
+        matches = self.confirmation_matches
+        _require(f"{path}.confirmation_matches", matches,
+                 isinstance(matches, int) and 1 <= matches <= (window if isinstance(window, int) else 1000),
+                 "must be an integer from 1 to confirmation_window")
+        _positive(path, confirmation_tolerance=self.confirmation_tolerance)
+        _non_negative(path, confirmation_age=self.confirmation_age, confirmation_drift=self.confirmation_drift,
+                      confirmation_spacing=self.confirmation_spacing)
 
 
 @dataclass(frozen=True)

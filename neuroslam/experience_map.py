@@ -17,6 +17,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse
+import scipy.sparse.linalg
 
 from .cells.attractor import wrapped_distance
 from .config import ExperienceMapConfig
@@ -24,6 +26,8 @@ from .config import ExperienceMapConfig
 __all__ = ["ExperienceMap", "MapUpdate"]
 
 SETTLED = 1e-4  # m or rad: relaxation stops once no experience moves more than this in a pass
+LEAST_SQUARES_ITERATIONS = 10  # Gauss–Newton iterations at most per solve
+LEAST_SQUARES_SETTLED = 1e-3  # m or rad: the solve stops once no experience moves more than this
 
 
 def _wrap(angle: np.ndarray | float) -> np.ndarray | float:
@@ -190,6 +194,10 @@ class ExperienceMap:
         direction = wrapped_distance(self.direction_codes, direction_code, self.direction_size)
         return config.view_weight * view + config.grid_weight * grid + config.direction_weight * direction
 
+    def experiences_of(self, template_id: int) -> np.ndarray:
+        """Ids of the experiences whose view is ``template_id``, oldest first."""
+        return np.asarray(self._by_template.get(int(template_id), ()), dtype=np.int64)
+
     def _candidates(self, template_id: int) -> np.ndarray:
         """Experiences that can score under the threshold: when a different view alone costs more than the
         threshold, only the experiences of this view (an exact shortcut, not an approximation)."""
@@ -197,8 +205,13 @@ class ExperienceMap:
             return np.asarray(self._by_template.get(template_id, ()), dtype=np.int64)
         return np.arange(self.size)
 
-    def update(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float) -> MapUpdate:
-        """Match the current conjunctive code, create or re-enter an experience, relax after a loop closure."""
+    def update(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float, *,
+               may_close_loop: bool = True) -> MapUpdate:
+        """Match the current conjunctive code, create or re-enter an experience, relax after a loop closure.
+
+        With ``may_close_loop`` False (an unconfirmed place under the ``confirmed`` rule) a match that
+        would close a loop creates a new experience instead.
+        """
         if self.current < 0:
             self._create(template_id, grid_code, direction_code, time, pose=self.relative.copy())
             self.relative[:] = 0
@@ -214,7 +227,9 @@ class ExperienceMap:
             best, best_score = int(candidates[best_index]), float(scores[best_index])
         else:
             best, best_score = -1, math.inf
-        if best_score > self.config.threshold:
+        closes_loop = (best >= 0 and best != self.current and (self.current, best) not in self._linked
+                       and (best, self.current) not in self._linked)
+        if best_score > self.config.threshold or (closes_loop and not may_close_loop):
             previous = self.current
             self._create(template_id, grid_code, direction_code, time, pose=self.robot_pose())
             self._link(previous, self.current, time)
@@ -226,7 +241,6 @@ class ExperienceMap:
             return MapUpdate(self.current, False, False)
         previous = self.current
         offset = self._offset(best, grid_code, direction_code)
-        closes_loop = (previous, best) not in self._linked and (best, previous) not in self._linked
         if closes_loop:
             # the robot is at previous ⊕ odometry and at best ⊕ offset, so best = previous ⊕ odometry ⊖ offset
             self.relative = self._compose(self.relative, self._invert(offset))
@@ -268,6 +282,59 @@ class ExperienceMap:
         self._linked.add((source, target))
 
     def _relax(self, passes: int) -> None:
+        """Relax the map after a change: eq. 25's passes, or its least-squares map solved directly."""
+        if self.config.relaxation == "least-squares":
+            if not self._settled:
+                self._solve()
+            return
+        self._relax_passes(passes)
+
+    def _solve(self) -> None:
+        """The least-squares map of eq. 25's link errors, found by Gauss–Newton on the sparse link graph.
+
+        Eq. 25 moves every experience by a fraction of its links' errors per pass, reducing the sum of
+        squared link errors (x, y, z in metres, yaw in radians, all weighted 1). Along a loop of n
+        experiences it needs of the order of n² passes to spread a loop's error (a 1,500-experience lap
+        keeps almost all of it after thousands of passes), so a map relaxed by passes still has the
+        shape of the odometry; and its passes settle short of the minimum, because they ignore how a
+        source's yaw moves its target. Here that sum is minimised directly: residuals
+
+            r_xy = p_source + distance · (cos, sin)(yaw_source + heading) − p_target,
+            r_z = z_source + height − z_target,   r_yaw = wrap(yaw_source + facing − yaw_target),
+
+        linearised (including the dependence of r_xy on the source's yaw), and the normal equations
+        solved by a sparse LU, the first experience held fixed; a few iterations converge.
+        """
+        n, count = self.size, self._links.count
+        sources, targets = self.links[:, 0], self.links[:, 1]
+        distance, heading, facing, height = self.link_poses.T
+        poses = self._poses.data[:n]
+        rows = np.arange(count)
+        ones = np.ones(count)
+        anchor = scipy.sparse.diags(np.r_[np.full(4, 1e6), np.full(4 * n - 4, 1e-9)], format="csc")
+        for _ in range(LEAST_SQUARES_ITERATIONS):
+            direction = poses[sources, 3] + heading
+            cos, sin = distance * np.cos(direction), distance * np.sin(direction)
+            residual = np.concatenate([
+                poses[sources, 0] + cos - poses[targets, 0], poses[sources, 1] + sin - poses[targets, 1],
+                poses[sources, 2] + height - poses[targets, 2], _wrap(poses[sources, 3] + facing - poses[targets, 3])])
+            # Jacobian: residual block a (x, y, z, yaw) against the source's and target's variables
+            jacobian_rows = np.concatenate([rows, rows, rows, rows + count, rows + count, rows + count,
+                                            rows + 2 * count, rows + 2 * count, rows + 3 * count, rows + 3 * count])
+            columns = np.concatenate([4 * sources, 4 * targets, 4 * sources + 3, 4 * sources + 1, 4 * targets + 1,
+                                      4 * sources + 3, 4 * sources + 2, 4 * targets + 2, 4 * sources + 3,
+                                      4 * targets + 3])
+            values = np.concatenate([ones, -ones, -sin, ones, -ones, cos, ones, -ones, ones, -ones])
+            jacobian = scipy.sparse.csr_matrix((values, (jacobian_rows, columns)), shape=(4 * count, 4 * n))
+            normal = (jacobian.T @ jacobian).tocsc() + anchor
+            step = scipy.sparse.linalg.spsolve(normal, -(jacobian.T @ residual)).reshape(n, 4)
+            poses += step
+            poses[:, 3] = _wrap(poses[:, 3])
+            if np.abs(step).max() < LEAST_SQUARES_SETTLED:
+                break
+        self._settled = True
+
+    def _relax_passes(self, passes: int) -> None:
         """Eq. 25 over all links at once, ``passes`` times.
 
         Once a pass moves no experience by more than ``SETTLED`` (m or rad) the map counts as settled and

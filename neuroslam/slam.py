@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,7 +27,8 @@ import numpy as np
 from .cells import GridCells, HeadDirectionCells
 from .config import Config, load_config
 from .errors import InvalidInputError, InvalidParameterError
-from .experience_map import ExperienceMap
+from .experience_map import ExperienceMap, _Growing
+from .loop_closure import confirm_place
 from .vision.local_view import LocalViewCells
 from .vision.odometry import SelfMotion, VisualOdometry
 from .vision.preprocessing import grey
@@ -95,6 +97,12 @@ class NeuroSLAM:
         self._image_shape: tuple[int, ...] | None = None
         self._last_time: float | None = None
         self._odometry_pose = np.zeros(4)
+        # the last frames' (odometry pose, template id), for the confirmed loop-closure rule
+        self._recent: deque[tuple[np.ndarray, int]] = deque(maxlen=c.experience_map.confirmation_window)
+        self._since_closure = 0.0  # m driven since the last loop closure
+        # per frame: its experience and the robot's pose relative to it (x, y, z, yaw), for trajectory()
+        self._frame_experiences = _Growing(0, np.int64)
+        self._frame_offsets = _Growing(4, np.float64)
         self.frames = 0
         self.last: Estimate | None = None
 
@@ -164,13 +172,33 @@ class NeuroSLAM:
             self._recall_view(view.template_id, view.relative_yaw, float(timestamp))
             grid_code = self.grid_cells.decode()
             direction_code = self.head_direction.decode()
-        self.experience_map.integrate(distance, yaw_change, climb)
-        update = self.experience_map.update(view.template_id, grid_code, direction_code, float(timestamp))
-
         x, y, z, yaw = self._odometry_pose
         middle = yaw + yaw_change / 2
         self._odometry_pose = np.array([x + distance * math.cos(middle), y + distance * math.sin(middle), z + climb,
                                         math.atan2(math.sin(yaw + yaw_change), math.cos(yaw + yaw_change))])
+        may_close_loop = True
+        self._since_closure += distance
+        if self.config.experience_map.loop_closure == "confirmed":
+            spacing = self.config.experience_map.confirmation_spacing
+            # the newest entry is the latest frame; it stays once it lies ``spacing`` beyond the one before
+            if (len(self._recent) < 2 or spacing == 0
+                    or np.linalg.norm(self._recent[-1][0][:3] - self._recent[-2][0][:3]) >= spacing):
+                self._recent.append((self._odometry_pose, view.template_id))
+            else:
+                self._recent[-1] = (self._odometry_pose, view.template_id)
+            place = -1 if view.new else self._confirmed_place(view.relative_yaw, float(timestamp))
+            may_close_loop = place >= 0
+            if may_close_loop:
+                grid_code, direction_code = self._relocate(place, view.relative_yaw, grid_code, direction_code)
+
+        self.experience_map.integrate(distance, yaw_change, climb)
+        update = self.experience_map.update(view.template_id, grid_code, direction_code, float(timestamp),
+                                            may_close_loop=may_close_loop)
+        if update.loop_closure or (not update.new_experience and self.experience_map.creation_times[
+                update.experience_id] < timestamp - self.config.experience_map.confirmation_age):
+            self._since_closure = 0.0  # on an old experience: localised in the map
+        self._frame_experiences.append(update.experience_id)
+        self._frame_offsets.append(self.experience_map.relative)
         self._image_shape = array.shape
         self._last_time = float(timestamp)
         self.frames += 1
@@ -180,6 +208,63 @@ class NeuroSLAM:
         if update.loop_closure:
             logger.debug("frame %d: loop closed at experience %d", self.frames, update.experience_id)
         return self.last
+
+    def trajectory(self) -> np.ndarray:
+        """(N, 4) every frame's pose (x, y, z, yaw; m, rad) in the map as it is now.
+
+        Each frame is re-expressed through the experience it was at, with the robot's pose relative to
+        that experience then: a loop closure that moved the experiences moves the frames with them. This
+        is the trajectory SLAM evaluations score (the final estimate, as a keyframe SLAM writes it at
+        shutdown); :attr:`Estimate.pose` is the estimate as it was at each frame (online).
+        """
+        experiences = self._frame_experiences.view
+        if len(experiences) == 0:
+            return np.zeros((0, 4))
+        anchors = self.experience_map.poses[experiences]
+        offsets = self._frame_offsets.view
+        cos, sin = np.cos(anchors[:, 3]), np.sin(anchors[:, 3])
+        yaw = anchors[:, 3] + offsets[:, 3]
+        return np.stack([anchors[:, 0] + cos * offsets[:, 0] - sin * offsets[:, 1],
+                         anchors[:, 1] + sin * offsets[:, 0] + cos * offsets[:, 1],
+                         anchors[:, 2] + offsets[:, 2], np.arctan2(np.sin(yaw), np.cos(yaw))], axis=1)
+
+    def _confirmed_place(self, relative_yaw: float, time: float) -> int:
+        """The old experience the last frames confirm (:func:`~neuroslam.loop_closure.confirm_place`), or -1.
+
+        Old: made more than ``confirmation_age`` ago. The search radius grows with the distance driven
+        since the robot was last on an old experience (``confirmation_drift`` per metre).
+        """
+        config = self.config.experience_map
+        themap = self.experience_map
+        return confirm_place(
+            np.array([pose for pose, _ in self._recent]), np.array([template for _, template in self._recent]),
+            relative_yaw, themap.poses, themap.experiences_of, themap.creation_times < time - config.confirmation_age,
+            themap.robot_pose(), radius=config.confirmation_tolerance + config.confirmation_drift * self._since_closure,
+            tolerance=config.confirmation_tolerance, matches=config.confirmation_matches)
+
+    def _relocate(self, place: int, relative_yaw: float, grid_code: np.ndarray, direction_code: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        """Move both packets to a confirmed place's codes, unless eq. 22 already matches it there.
+
+        The packets are shifted whole (the same exact shift as path integration, eqs. 6–9), so they keep
+        their resting shape. Returns the decoded codes afterwards.
+        """
+        themap = self.experience_map
+        target_grid = themap.grid_codes[place]
+        target_direction = themap.direction_codes[place].copy()
+        target_direction[0] += relative_yaw / self.head_direction.yaw_cell_size
+        config = self.config.experience_map
+        score = (config.grid_weight * self.grid_cells.distance(grid_code, target_grid)
+                 + config.direction_weight * self.head_direction.distance(direction_code, target_direction))
+        if score <= config.threshold:
+            return grid_code, direction_code
+        grid_size = np.asarray(self.config.grid_cells.size, dtype=float)
+        direction_size = np.asarray(self.config.head_direction.size, dtype=float)
+        self.grid_cells.network.step((target_grid - grid_code + grid_size / 2) % grid_size - grid_size / 2)
+        self.head_direction.network.step(
+            (target_direction - direction_code + direction_size / 2) % direction_size - direction_size / 2)
+        logger.debug("relocated to experience %d (code distance %.1f cells)", place, score)
+        return self.grid_cells.decode(), self.head_direction.decode()
 
     def _learn_view(self, template: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float) -> None:
         """Eq. 10: a new local view cell associates with the current grid and head-direction packets."""

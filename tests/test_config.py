@@ -26,6 +26,12 @@ def test_presets_exist_and_differ():
     ({"odometry": {"height_region": {"top": 0.9, "bottom": 0.5}}}, "odometry.height_region.bottom", "greater"),
     ({"experience_map": {"correction": 2}}, "experience_map.correction", "(0, 1]"),
     ({"horizontal_fov": -1}, "horizontal_fov", "radians"),
+    ({"experience_map": {"relaxation": "gauss"}}, "experience_map.relaxation", "passes, least-squares"),
+    ({"experience_map": {"loop_closure": "seq"}}, "experience_map.loop_closure", "code, confirmed"),
+    ({"experience_map": {"confirmation_window": 10, "confirmation_matches": 11}},
+     "experience_map.confirmation_matches", "from 1 to confirmation_window"),
+    ({"experience_map": {"confirmation_tolerance": 0}}, "experience_map.confirmation_tolerance", "positive"),
+    ({"experience_map": {"confirmation_drift": -0.1}}, "experience_map.confirmation_drift", ">= 0"),
 ])
 def test_bad_settings_name_the_field(data, field, text):
     with pytest.raises(InvalidParameterError) as error:

@@ -75,3 +75,57 @@ def test_estimate_carries_the_state():
     estimate = slam.step(image(0), 0.0)
     assert estimate.pose.shape == (4,) and estimate.new_template and estimate.new_experience
     assert estimate.grid_cell.shape == (3,) and estimate.head_direction_cell.shape == (2,)
+
+
+def _square_laps(config, jump):
+    """Two laps of the 40-view square; at the end of the first the odometry over-reads one frame by ``jump`` m."""
+    slam = NeuroSLAM(config)
+    views = [image(100 + k) for k in range(40)]
+    t, closures = 0.0, 0
+    for lap in range(2):
+        for k in range(40):
+            t += 0.1
+            turning = k % 10 == 9
+            speed = 0.0 if turning else 10.0 + (10 * jump if (lap, k) == (0, 38) else 0.0)
+            estimate = slam.step(views[k], t, odometry=SelfMotion(speed, (math.pi / 2) / 0.1 if turning else 0.0))
+            closures += estimate.loop_closure
+    return slam, closures
+
+
+def test_confirmed_loop_closure_corrects_drift_that_the_codes_cannot():
+    """A 6 m odometry error before the second lap (three grid cells: eq. 22's codes no longer match): the
+    paper's rule makes new experiences on a parallel track; the confirmed rule recognises the run of views,
+    moves the packets back, closes the loop, and the least-squares map puts the frames back on the square."""
+    from neuroslam.config import Config, ExperienceMapConfig
+
+    code, code_closures = _square_laps(Config(), jump=6.0)
+    assert code_closures == 0 and code.experience_map.size == 80
+    confirmed_config = Config(experience_map=ExperienceMapConfig(
+        loop_closure="confirmed", relaxation="least-squares", confirmation_age=2.0, confirmation_drift=0.2,
+        confirmation_tolerance=1.0))
+    confirmed, closures = _square_laps(confirmed_config, jump=6.0)
+    assert closures >= 1 and confirmed.experience_map.size < 50
+    # the second lap's frames in the final map lie on the first lap's, 6 m off without the rule; the
+    # least-squares map spreads the jump over the loop's ~40 links (all weighted alike), so up to ~1 m
+    def lap_gaps(slam):
+        trajectory = slam.trajectory()
+        return np.linalg.norm(trajectory[40:78, :2] - trajectory[:38, :2], axis=1)  # frames 38-39 jumped
+
+    assert np.median(lap_gaps(code)) > 5.0
+    assert np.median(lap_gaps(confirmed)) < 1.0
+
+
+def test_trajectory_moves_frames_with_their_experiences():
+    slam = NeuroSLAM()
+    estimates = []
+    for k in range(30):
+        estimates.append(slam.step(image(k % 7), 0.1 * (k + 1), odometry=SelfMotion(5.0, 0.3)).pose)
+    trajectory = slam.trajectory()
+    assert trajectory.shape == (30, 4)
+    np.testing.assert_allclose(trajectory, np.array(estimates), atol=1e-9)  # nothing relaxed: the online poses
+    experience = slam.last.experience_id
+    slam.experience_map._poses.data[experience] += [1.0, -2.0, 0.5, 0.0]
+    moved = slam.trajectory() - trajectory
+    at = slam._frame_experiences.view == experience
+    np.testing.assert_allclose(moved[at], np.tile([1.0, -2.0, 0.5, 0.0], (at.sum(), 1)), atol=1e-9)
+    assert np.abs(moved[~at]).max() == 0

@@ -1,0 +1,81 @@
+"""Confirmed loop closure: the rule of the grid-network paper (section III), made geometric.
+
+The paper accepts a loop closure "if more than six possible loop closures are detected in ten
+consecutive frames, and these loop closures are consistent". Here a possible loop closure is a frame
+whose view (local view cell) belongs to old experiences, and consistent means geometrically consistent:
+the old experiences those frames matched are laid out in the map as the odometry of those frames says.
+That is what rejects a single look-alike view, and a run of look-alike views in the wrong arrangement.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+__all__ = ["confirm_place"]
+
+
+def confirm_place(
+    window_poses: np.ndarray,
+    window_templates: np.ndarray,
+    relative_yaw: float,
+    map_poses: np.ndarray,
+    experiences_of: Callable[[int], np.ndarray],
+    eligible: np.ndarray,
+    robot: np.ndarray,
+    *,
+    radius: float,
+    tolerance: float,
+    matches: int,
+) -> int:
+    """The old experience the last frames confirm the robot is at, or -1.
+
+    Each eligible experience of the newest frame's view is a hypothesis: the robot is there, facing its
+    yaw plus the view's ``relative_yaw``. A hypothesis maps every window frame's odometry pose into the
+    map (rotation about z by the yaw difference, then a translation; heights by their difference); a
+    frame agrees when an eligible experience of its view lies within ``tolerance`` of where it is
+    mapped. Hypotheses with at least ``matches`` agreeing frames are confirmed; the one nearest to the
+    robot's current estimate wins, unless another confirmed one lies more than ``2 * tolerance`` from it
+    (a place that several parts of the map explain equally is not confirmed). Hypotheses farther than
+    ``radius`` from the estimate are not considered. All hypotheses at once; one pass per window frame.
+
+    Args:
+        window_poses: (K, 4) odometry poses (x, y, z, yaw; m, rad) of the window's frames, oldest first;
+            the last is the current frame.
+        window_templates: (K,) the view (template id) of each window frame.
+        relative_yaw: rad, the current view's yaw relative to its template.
+        map_poses: (M, 4) experience poses in the map. experiences_of: template id → experience ids.
+        eligible: (M,) bool, experiences that may be revisited (old enough).
+        robot: (4,) the robot's current estimate in the map.
+        radius, tolerance: m. matches: frames that must agree (the current frame counts).
+    """
+    window_poses = np.asarray(window_poses, dtype=float)
+    if len(window_poses) < matches:
+        return -1
+    now = window_poses[-1]
+    hypotheses = experiences_of(int(window_templates[-1]))
+    hypotheses = hypotheses[eligible[hypotheses]]
+    near = np.linalg.norm(map_poses[hypotheses, :3] - robot[:3], axis=1)
+    hypotheses, near = hypotheses[near <= radius], near[near <= radius]
+    if len(hypotheses) == 0:
+        return -1
+    rotation = map_poses[hypotheses, 3] + relative_yaw - now[3]  # odometry frame → map frame, per hypothesis
+    cos, sin = np.cos(rotation), np.sin(rotation)
+    support = np.zeros(len(hypotheses), dtype=int)
+    for pose, template in zip(window_poses, window_templates, strict=True):
+        places = experiences_of(int(template))
+        places = places[eligible[places]]
+        if len(places) == 0:
+            continue
+        dx, dy, dz = pose[:3] - now[:3]
+        mapped = np.stack([map_poses[hypotheses, 0] + cos * dx - sin * dy,
+                           map_poses[hypotheses, 1] + sin * dx + cos * dy, map_poses[hypotheses, 2] + dz], axis=1)
+        gaps = np.linalg.norm(mapped[:, None, :] - map_poses[None, places, :3], axis=2)
+        support += gaps.min(axis=1) <= tolerance
+    confirmed = support >= matches
+    if not confirmed.any():
+        return -1
+    best = int(np.argmin(np.where(confirmed, near, np.inf)))
+    spread = np.linalg.norm(map_poses[hypotheses[confirmed], :3] - map_poses[hypotheses[best], :3], axis=1).max()
+    return int(hypotheses[best]) if spread <= 2 * tolerance else -1

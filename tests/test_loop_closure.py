@@ -1,0 +1,112 @@
+"""The confirmed loop-closure rule: a run of views laid out as the odometry says confirms a place; a look-alike
+view, views in the wrong arrangement, places out of reach and places the map explains twice do not."""
+
+import math
+
+import numpy as np
+import pytest
+
+from neuroslam.loop_closure import confirm_place
+
+SPACING = 0.5  # m between old experiences along the path
+
+
+def _path(count, turn_at):
+    """Poses along a path that goes east, then turns left (north) at experience ``turn_at``."""
+    poses, x, y, yaw = [], 0.0, 0.0, 0.0
+    for k in range(count):
+        poses.append((x, y, 0.0, yaw))
+        if k == turn_at:
+            yaw = math.pi / 2
+        x, y = x + SPACING * math.cos(yaw), y + SPACING * math.sin(yaw)
+    return np.array(poses)
+
+
+class _Map:
+    """Old experiences on the path; each view (template) belongs to two neighbouring experiences."""
+
+    def __init__(self, poses, copies=1, offset=(0.0, 0.0)):
+        self.poses = np.concatenate([poses + np.array([*offset, 0, 0]) * c for c in range(copies)])
+        self.count = len(poses)
+
+    def experiences_of(self, template):
+        ids = [k for k in range(len(self.poses)) if (k % self.count) // 2 == template]
+        return np.array(ids, dtype=np.int64)
+
+
+def _revisit(themap, frames, *, drift_yaw=0.5, drift=(7.0, -3.0, 1.0)):
+    """The robot drives the path again, its odometry frame rotated by ``drift_yaw`` and shifted by ``drift``:
+    odometry poses and the views of the experiences it passes (frames 0..frames-1 at the path's poses)."""
+    c, s = math.cos(drift_yaw), math.sin(drift_yaw)
+    truth = themap.poses[:frames]
+    odometry = np.stack([c * truth[:, 0] - s * truth[:, 1] + drift[0], s * truth[:, 0] + c * truth[:, 1] + drift[1],
+                         truth[:, 2] + drift[2], truth[:, 3] + drift_yaw], axis=1)
+    templates = np.arange(frames) // 2
+    return odometry, templates
+
+
+def _confirm(themap, odometry, templates, *, robot=None, radius=100.0, matches=14, eligible=None):
+    robot = themap.poses[len(odometry) - 1] if robot is None else robot
+    eligible = np.ones(len(themap.poses), dtype=bool) if eligible is None else eligible
+    return confirm_place(odometry, templates, 0.0, themap.poses, themap.experiences_of, eligible, robot,
+                         radius=radius, tolerance=1.0, matches=matches)
+
+
+def test_a_consistent_run_of_views_confirms_the_place_despite_drift():
+    themap = _Map(_path(40, turn_at=25))
+    odometry, templates = _revisit(themap, 30)
+    window = slice(10, 30)  # 20 frames, 10 m, round the corner
+    # the place is one of the two experiences of the current view, the one the robot is at
+    assert _confirm(themap, odometry[window], templates[window]) in (28, 29)
+
+
+def test_too_few_agreeing_frames_do_not_confirm():
+    themap = _Map(_path(40, turn_at=25))
+    odometry, templates = _revisit(themap, 30)
+    window = slice(10, 30)
+    unseen = templates[window].copy()
+    unseen[:7] = 999  # 7 of 20 frames saw views the map does not have: 13 agree
+    assert _confirm(themap, odometry[window], unseen, matches=14) == -1
+    assert _confirm(themap, odometry[window], unseen, matches=13) in (28, 29)
+
+
+def test_views_in_the_wrong_arrangement_do_not_confirm():
+    themap = _Map(_path(40, turn_at=25))
+    odometry, templates = _revisit(themap, 30)
+    window = slice(10, 30)
+    shuffled = np.random.default_rng(3).permutation(templates[window][:-1])  # same views, another order
+    assert _confirm(themap, odometry[window], np.r_[shuffled, templates[29]]) == -1
+
+
+def test_a_place_out_of_reach_of_the_estimate_is_not_considered():
+    themap = _Map(_path(40, turn_at=25))
+    odometry, templates = _revisit(themap, 30)
+    far = themap.poses[29] + np.array([20.0, 0.0, 0.0, 0.0])
+    assert _confirm(themap, odometry[10:30], templates[10:30], robot=far, radius=10.0) == -1
+    assert _confirm(themap, odometry[10:30], templates[10:30], robot=far, radius=25.0) in (28, 29)
+
+
+def test_a_place_the_map_explains_twice_is_not_confirmed():
+    themap = _Map(_path(40, turn_at=25), copies=2, offset=(0.0, 30.0))  # the same corner twice, 30 m apart
+    odometry, templates = _revisit(themap, 30)
+    assert _confirm(themap, odometry[10:30], templates[10:30]) == -1
+    # with the other copy out of reach the place is unambiguous
+    assert _confirm(themap, odometry[10:30], templates[10:30], radius=10.0) in (28, 29)
+
+
+def test_only_eligible_experiences_count():
+    themap = _Map(_path(40, turn_at=25))
+    odometry, templates = _revisit(themap, 30)
+    eligible = np.ones(40, dtype=bool)
+    eligible[20:] = False  # the recent part of the map cannot be revisited
+    assert _confirm(themap, odometry[10:30], templates[10:30], eligible=eligible) == -1
+
+
+@pytest.mark.parametrize(("agreeing", "confirmed"), [(6, False), (7, True)])
+def test_the_papers_rule_more_than_six_of_ten_frames(agreeing, confirmed):
+    themap = _Map(_path(40, turn_at=25))
+    odometry, templates = _revisit(themap, 30)
+    views = templates[20:30].copy()
+    views[: 10 - agreeing] = 999
+    result = _confirm(themap, odometry[20:30], views, matches=7)
+    assert (result >= 0) == confirmed

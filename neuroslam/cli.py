@@ -87,7 +87,8 @@ def _parser() -> argparse.ArgumentParser:
     drive = commands.add_parser(
         "drive", help="drive a route in a simulated world with NeuroSLAM in the loop",
         description="Drive the robot along a route under MuJoCo physics, run NeuroSLAM on its camera frames, and "
-        "write into the output folder: groundtruth.tum, slam.tum (the SLAM estimate per frame), odometry.tum "
+        "write into the output folder: groundtruth.tum, slam.tum (every frame in the final map), slam_online.tum "
+        "(the estimate as it was at each frame), odometry.tum "
         "(the self-motion integrated without the map), wheel_odometry.tum, experiences.tum (the final map) "
         "and metrics.json (map size, loop closures and how many were false, trajectory and map errors after "
         "Sim(3) and SE(3) alignment, relative errors over 10 m, floor-level accuracy, timings).",
@@ -108,9 +109,9 @@ def _parser() -> argparse.ArgumentParser:
     run = commands.add_parser(
         "run", help="run NeuroSLAM on a folder of recorded frames",
         description="Run NeuroSLAM on a folder of PNG/JPEG frames (natural order; a frames/ subfolder is used if "
-        "present) and write slam.tum, odometry.tum, experiences.tum and metrics.json; with --groundtruth (TUM, "
-        "whose times become the frames' times, or the NeuroSLAM CSV frame,x,y,z,rx,ry,rz) metrics.json adds the "
-        "trajectory and map errors.")
+        "present) and write slam.tum, slam_online.tum, odometry.tum, experiences.tum and metrics.json; with "
+        "--groundtruth (TUM, whose times become the frames' times, or the NeuroSLAM CSV frame,x,y,z,rx,ry,rz) "
+        "metrics.json adds the trajectory and map errors.")
     run.add_argument("frames", type=Path, help="folder of frames (for example one written by neuroslam record)")
     run.add_argument("--groundtruth", type=Path, help="ground truth: TUM or NeuroSLAM CSV")
     run.add_argument("--rate", type=_positive_float, default=10.0,
@@ -197,8 +198,9 @@ def _drive(args: argparse.Namespace) -> int:
     write_tum(out / "groundtruth.tum", times, positions, np.array([t.quaternion for t in truths]))
     write_tum(out / "wheel_odometry.tum", times, np.array([[o.x, o.y, 0.0] for o in odometry]),
               yaw_quaternion(np.array([o.yaw for o in odometry])))
-    estimates, self_motion = np.array(estimates), np.array(self_motion)
-    _write_slam(out, times, estimates, self_motion, slam)
+    online, self_motion = np.array(estimates), np.array(self_motion)
+    estimates = slam.trajectory()
+    _write_slam(out, times, estimates, online, self_motion, slam)
     experience_map = slam.experience_map
     frames = len(times)
     true_levels = np.array([t.level for t in truths])
@@ -207,7 +209,7 @@ def _drive(args: argparse.Namespace) -> int:
         truth=np.array([t.pose for t in truths]), true_levels=true_levels, levels=np.array(world.levels),
         estimate=estimates, odometry=self_motion, experience_positions=experience_map.poses[:, :3],
         experience_frames=np.searchsorted(times, experience_map.creation_times),
-        closure_frames=closures[:, 0], closure_experiences=closures[:, 1],
+        closure_frames=closures[:, 0], closure_experiences=closures[:, 1], online_estimate=online,
     )
     summary = {
         "world": world.name,
@@ -241,9 +243,9 @@ def _drive(args: argparse.Namespace) -> int:
         ("height range", f"{summary['height_range_m'][0]:.2f} .. {summary['height_range_m'][1]:.2f} m"),
         ("map", f"{summary['templates']} templates, {summary['experiences']} experiences, "
                 f"{summary['loop_closures']} loop closures ({summary['false_loop_closures']} false)"),
-        ("ATE (Sim(3))", "SLAM {slam}, {odometry} odometry {odometry_ate}".format(
-            slam=_metres(summary["ate_rmse_m"]["slam"]), odometry=args.odometry,
-            odometry_ate=_metres(summary["ate_rmse_m"]["odometry"]))),
+        ("ATE (Sim(3))", "SLAM {slam} (online {online}), {odometry} odometry {odometry_ate}".format(
+            slam=_metres(summary["ate_rmse_m"]["slam"]), online=_metres(summary["ate_rmse_m"]["slam_online"]),
+            odometry=args.odometry, odometry_ate=_metres(summary["ate_rmse_m"]["odometry"]))),
         ("map error", f"{_metres(summary['map_rmse_m'])} (experiences, Sim(3)); level accuracy "
                       + ("n/a" if summary["level_accuracy"] is None else f"{summary['level_accuracy']:.2f}")),
         ("ms per frame", "SLAM {slam:.2f}, physics {physics:.2f}, render {render:.2f}, total {total:.2f}".format(
@@ -254,11 +256,14 @@ def _drive(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_slam(out: Path, times: np.ndarray, estimates: np.ndarray, self_motion: np.ndarray, slam) -> None:
-    """slam.tum, odometry.tum and experiences.tum of a run."""
+def _write_slam(out: Path, times: np.ndarray, estimates: np.ndarray, online: np.ndarray, self_motion: np.ndarray,
+                slam) -> None:
+    """slam.tum (every frame in the final map), slam_online.tum (the estimate as it was at each frame),
+    odometry.tum and experiences.tum of a run."""
     from .tum import write_tum, yaw_quaternion
 
     write_tum(out / "slam.tum", times, estimates[:, :3], yaw_quaternion(estimates[:, 3]))
+    write_tum(out / "slam_online.tum", times, online[:, :3], yaw_quaternion(online[:, 3]))
     write_tum(out / "odometry.tum", times, self_motion[:, :3], yaw_quaternion(self_motion[:, 3]))
     experience_map = slam.experience_map
     write_tum(out / "experiences.tum", experience_map.creation_times, experience_map.poses[:, :3],
@@ -332,8 +337,9 @@ def _run(args: argparse.Namespace) -> int:
     if recorder is not None:
         recorder.close()
     elapsed = time.perf_counter() - started
-    estimates, self_motion = np.array(estimates), np.array(self_motion)
-    _write_slam(out, times, estimates, self_motion, slam)
+    online, self_motion = np.array(estimates), np.array(self_motion)
+    estimates = slam.trajectory()
+    _write_slam(out, times, estimates, online, self_motion, slam)
     experience_map = slam.experience_map
     metrics = {"frames": len(frames), "templates": slam.local_view.count, "experiences": experience_map.size,
                "loop_closures": experience_map.loop_closures}
@@ -343,7 +349,7 @@ def _run(args: argparse.Namespace) -> int:
             truth=groundtruth.poses, true_levels=None, levels=None, estimate=estimates, odometry=self_motion,
             experience_positions=experience_map.poses[:, :3],
             experience_frames=np.searchsorted(times, experience_map.creation_times),
-            closure_frames=closures[:, 0], closure_experiences=closures[:, 1]))
+            closure_frames=closures[:, 0], closure_experiences=closures[:, 1], online_estimate=online))
     metrics["ms_per_frame"] = {"total": 1000 * elapsed / len(frames)}
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     _report(out / "report.png", Path(args.frames).name, times, None if groundtruth is None else groundtruth.poses,
@@ -352,7 +358,8 @@ def _run(args: argparse.Namespace) -> int:
             ("map", f"{metrics['templates']} templates, {metrics['experiences']} experiences, "
                     f"{metrics['loop_closures']} loop closures")]
     if groundtruth is not None:
-        rows.append(("ATE (Sim(3))", f"SLAM {_metres(metrics['ate_rmse_m']['slam'])}, "
+        rows.append(("ATE (Sim(3))", f"SLAM {_metres(metrics['ate_rmse_m']['slam'])} "
+                                     f"(online {_metres(metrics['ate_rmse_m']['slam_online'])}), "
                                      f"odometry {_metres(metrics['ate_rmse_m']['odometry'])}"))
     rows += [("ms per frame", f"{metrics['ms_per_frame']['total']:.2f} (reading images included)"),
              ("output", str(out))]

@@ -37,7 +37,7 @@ def test_short_drive_with_slam_writes_trajectories_and_summary(tmp_path, capsys,
     times, _positions, quaternions = read_tum(tmp_path / "groundtruth.tum")
     assert len(times) == 30 and times[1] == pytest.approx(0.1)
     np.testing.assert_allclose(np.linalg.norm(quaternions, axis=1), 1.0, atol=1e-6)
-    for name in ("odometry.tum", "wheel_odometry.tum", "slam.tum"):
+    for name in ("odometry.tum", "wheel_odometry.tum", "slam.tum", "slam_online.tum"):
         other_times, other_positions, _ = read_tum(tmp_path / name)
         np.testing.assert_array_equal(other_times, times)
         assert np.all(np.isfinite(other_positions))
@@ -51,7 +51,7 @@ def test_short_drive_with_slam_writes_trajectories_and_summary(tmp_path, capsys,
                 "rpe_rmse_m", "map_rmse_m", "loop_closures", "false_loop_closures", "level_accuracy", "templates",
                 "experiences", "ms_per_frame"):
         assert key in summary, key
-    assert set(summary["ate_rmse_m"]) == {"slam", "odometry"} and summary["ate_rmse_m"]["slam"] >= 0
+    assert set(summary["ate_rmse_m"]) == {"slam", "slam_online", "odometry"} and summary["ate_rmse_m"]["slam"] >= 0
     assert 0 <= summary["level_accuracy"] <= 1 and summary["false_loop_closures"] <= summary["loop_closures"]
     assert set(summary["ms_per_frame"]) == {"slam", "physics", "render", "total"}
     assert "levels visited" in capsys.readouterr().out

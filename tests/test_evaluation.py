@@ -173,7 +173,7 @@ def test_rpe_matches_evo_with_the_same_pairs():
 
 def test_run_metrics_and_tum_files_of_a_drive_match_evo(tmp_path):
     """A short drive through the car park with the CLI: evo reads every TUM file it writes, and its ATE
-    (Sim(3) and SE(3)) and RPE of slam.tum and odometry.tum against groundtruth.tum are the ones in
+    (Sim(3) and SE(3)) and RPE of slam.tum, slam_online.tum and odometry.tum against groundtruth.tum are the ones in
     metrics.json (to the 9 digits of the files)."""
     pytest.importorskip("evo")
     import json
@@ -186,14 +186,14 @@ def test_run_metrics_and_tum_files_of_a_drive_match_evo(tmp_path):
     assert main(["drive", "carpark", "--max-frames", "200", "--out", str(tmp_path)]) == 0
     summary = json.loads((tmp_path / "metrics.json").read_text())
     trajectories = {}
-    for name in ("groundtruth", "slam", "odometry", "wheel_odometry", "experiences"):
+    for name in ("groundtruth", "slam", "slam_online", "odometry", "wheel_odometry", "experiences"):
         trajectory = file_interface.read_tum_trajectory_file(tmp_path / f"{name}.tum")
         valid, details = trajectory.check()  # unit quaternions, SE(3) poses, ascending unique timestamps
         assert valid, (name, details)
         trajectories[name] = trajectory
     truth = trajectories["groundtruth"]
     assert truth.num_poses == summary["frames"] == 200
-    for name in ("slam", "odometry", "wheel_odometry"):
+    for name in ("slam", "slam_online", "odometry", "wheel_odometry"):
         np.testing.assert_array_equal(trajectories[name].timestamps, truth.timestamps)
     assert trajectories["experiences"].num_poses == summary["experiences"]
 
@@ -206,7 +206,7 @@ def test_run_metrics_and_tum_files_of_a_drive_match_evo(tmp_path):
     partners = np.searchsorted(travelled, travelled + 10.0)  # our pairs (see the test above): speed varies here
     pairs = [(i, j) for i, j in enumerate(partners) if j < len(positions)]
     assert len(pairs) > 20
-    for name in ("slam", "odometry"):
+    for name in ("slam", "slam_online", "odometry"):
         estimate = trajectories[name]
         assert _evo_ate(truth, estimate, with_scale=True)[0] == pytest.approx(summary["ate_rmse_m"][name], rel=1e-6)
         assert _evo_ate(truth, estimate, with_scale=False)[0] == pytest.approx(summary["ate_se3_rmse_m"][name],

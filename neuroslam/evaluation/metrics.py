@@ -76,17 +76,21 @@ def run_metrics(
     experience_frames: np.ndarray,
     closure_frames: np.ndarray,
     closure_experiences: np.ndarray,
+    online_estimate: np.ndarray | None = None,
 ) -> dict:
     """The accuracy numbers of one run, as plain data for ``metrics.json``.
 
     Args:
         truth: (N, 4) true poses per frame. true_levels: (N,) true level index per frame, or None.
         levels: floor heights, m, or None (then no level accuracy, and closures are judged by distance).
-        estimate, odometry: (N, 4) SLAM and odometry poses per frame.
+        estimate, odometry: (N, 4) SLAM and odometry poses per frame; the SLAM poses as in the final map
+            (:meth:`neuroslam.slam.NeuroSLAM.trajectory`), as SLAM evaluations score a finished run.
+        online_estimate: (N, 4) the SLAM estimate as it was at each frame, or None; scored as
+            ``slam_online`` beside ``slam`` and ``odometry``.
         experience_positions: (M, 3) final experience positions. experience_frames: (M,) frame each was made.
         closure_frames, closure_experiences: frame and re-entered experience of every loop closure.
 
-    Returns ``ate_rmse_m`` and ``ate_se3_rmse_m`` ({slam, odometry}), ``rpe_rmse_m`` ({slam, odometry},
+    Returns ``ate_rmse_m`` and ``ate_se3_rmse_m`` ({slam, odometry[, slam_online]}), ``rpe_rmse_m`` (the same,
     10 m segments), ``map_rmse_m``, ``loop_closures``, ``false_loop_closures``,
     ``true_loop_closures_per_level`` ({level index as text: closures within 2 m on that level}, None without
     levels) and ``level_accuracy``; a number that needs more frames than the run has is None.
@@ -97,7 +101,10 @@ def run_metrics(
     if true_levels is None:
         true_levels = np.zeros(len(truth), dtype=int)
     result: dict = {"ate_rmse_m": {}, "ate_se3_rmse_m": {}, "rpe_rmse_m": {}}
-    for name, poses in (("slam", estimate), ("odometry", odometry)):
+    scored = [("slam", estimate), ("odometry", odometry)]
+    if online_estimate is not None:
+        scored.append(("slam_online", online_estimate))
+    for name, poses in scored:
         result["ate_rmse_m"][name] = _rmse(align(poses[:, :3], positions), positions) if enough else None
         result["ate_se3_rmse_m"][name] = (_rmse(align(poses[:, :3], positions, with_scale=False), positions)
                                           if enough else None)

@@ -321,6 +321,8 @@ class ExperienceMapConfig:
             hypothesis puts it. confirmation_age: s, experiences younger than this are not a revisit.
         confirmation_drift: m per m driven since the last loop closure: a hypothesis must lie within
             ``confirmation_tolerance`` plus this times that distance of the current estimate.
+        confirmation_climb_error: m of height per m driven: the same for heights (the visual odometry's
+            height drifts faster than its position), and how far the window's heights may disagree.
     """
 
     view_weight: float = 10.0
@@ -338,6 +340,7 @@ class ExperienceMapConfig:
     confirmation_tolerance: float = 2.0
     confirmation_age: float = 30.0
     confirmation_drift: float = 0.1
+    confirmation_climb_error: float = 0.25
 
     def __post_init__(self) -> None:
         self.validate()
@@ -365,6 +368,7 @@ class ExperienceMapConfig:
                  "must be an integer from 1 to confirmation_window")
         _positive(path, confirmation_tolerance=self.confirmation_tolerance)
         _non_negative(path, confirmation_age=self.confirmation_age, confirmation_drift=self.confirmation_drift,
+                      confirmation_climb_error=self.confirmation_climb_error,
                       confirmation_spacing=self.confirmation_spacing)
 
 

@@ -9,6 +9,7 @@ That is what rejects a single look-alike view, and a run of look-alike views in 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -28,6 +29,8 @@ def confirm_place(
     radius: float,
     tolerance: float,
     matches: int,
+    climb_error: float = 0.0,
+    height_radius: float | None = None,
 ) -> int:
     """The old experience the last frames confirm the robot is at, or -1.
 
@@ -35,10 +38,14 @@ def confirm_place(
     yaw plus the view's ``relative_yaw``. A hypothesis maps every window frame's odometry pose into the
     map (rotation about z by the yaw difference, then a translation; heights by their difference); a
     frame agrees when an eligible experience of its view lies within ``tolerance`` of where it is
-    mapped. Hypotheses with at least ``matches`` agreeing frames are confirmed; the one nearest to the
-    robot's current estimate wins, unless another confirmed one lies more than ``2 * tolerance`` from it
-    (a place that several parts of the map explain equally is not confirmed). Hypotheses farther than
-    ``radius`` from the estimate are not considered. All hypotheses at once; one pass per window frame.
+    mapped: horizontally within ``tolerance``, vertically within ``tolerance`` plus ``climb_error`` times
+    the horizontal distance between that frame and the current one (the odometry's heights drift faster
+    than its positions). Hypotheses with at least ``matches`` agreeing frames are confirmed; the one
+    nearest to the robot's current estimate wins, unless another confirmed one lies more than
+    ``2 * tolerance`` from it (a place that several parts of the map explain equally is not confirmed).
+    Hypotheses horizontally farther than ``radius`` from the estimate, or vertically farther than
+    ``height_radius`` (default ``radius``), are not considered. All hypotheses at once; one pass per
+    window frame.
 
     Args:
         window_poses: (K, 4) odometry poses (x, y, z, yaw; m, rad) of the window's frames, oldest first;
@@ -48,7 +55,8 @@ def confirm_place(
         map_poses: (M, 4) experience poses in the map. experiences_of: template id → experience ids.
         eligible: (M,) bool, experiences that may be revisited (old enough).
         robot: (4,) the robot's current estimate in the map.
-        radius, tolerance: m. matches: frames that must agree (the current frame counts).
+        radius, tolerance, height_radius: m. matches: frames that must agree (the current frame counts).
+        climb_error: m of height per m of travel the window's odometry may be off by.
     """
     window_poses = np.asarray(window_poses, dtype=float)
     if len(window_poses) < matches:
@@ -56,8 +64,10 @@ def confirm_place(
     now = window_poses[-1]
     hypotheses = experiences_of(int(window_templates[-1]))
     hypotheses = hypotheses[eligible[hypotheses]]
-    near = np.linalg.norm(map_poses[hypotheses, :3] - robot[:3], axis=1)
-    hypotheses, near = hypotheses[near <= radius], near[near <= radius]
+    height_radius = radius if height_radius is None else height_radius
+    near = np.linalg.norm(map_poses[hypotheses, :2] - robot[:2], axis=1)
+    reachable = (near <= radius) & (np.abs(map_poses[hypotheses, 2] - robot[2]) <= height_radius)
+    hypotheses, near = hypotheses[reachable], near[reachable]
     if len(hypotheses) == 0:
         return -1
     rotation = map_poses[hypotheses, 3] + relative_yaw - now[3]  # odometry frame → map frame, per hypothesis
@@ -71,8 +81,10 @@ def confirm_place(
         dx, dy, dz = pose[:3] - now[:3]
         mapped = np.stack([map_poses[hypotheses, 0] + cos * dx - sin * dy,
                            map_poses[hypotheses, 1] + sin * dx + cos * dy, map_poses[hypotheses, 2] + dz], axis=1)
-        gaps = np.linalg.norm(mapped[:, None, :] - map_poses[None, places, :3], axis=2)
-        support += gaps.min(axis=1) <= tolerance
+        gaps = np.linalg.norm(mapped[:, None, :2] - map_poses[None, places, :2], axis=2)
+        climbs = np.abs(mapped[:, None, 2] - map_poses[None, places, 2])
+        agree = (gaps <= tolerance) & (climbs <= tolerance + climb_error * math.hypot(dx, dy))
+        support += agree.any(axis=1)
     confirmed = support >= matches
     if not confirmed.any():
         return -1

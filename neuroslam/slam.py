@@ -232,7 +232,8 @@ class NeuroSLAM:
         """The old experience the last frames confirm (:func:`~neuroslam.loop_closure.confirm_place`), or -1.
 
         Old: made more than ``confirmation_age`` ago. The search radius grows with the distance driven
-        since the robot was last on an old experience (``confirmation_drift`` per metre).
+        since the robot was last on an old experience (``confirmation_drift`` per metre, and
+        ``confirmation_climb_error`` per metre for heights).
         """
         config = self.config.experience_map
         themap = self.experience_map
@@ -240,7 +241,9 @@ class NeuroSLAM:
             np.array([pose for pose, _ in self._recent]), np.array([template for _, template in self._recent]),
             relative_yaw, themap.poses, themap.experiences_of, themap.creation_times < time - config.confirmation_age,
             themap.robot_pose(), radius=config.confirmation_tolerance + config.confirmation_drift * self._since_closure,
-            tolerance=config.confirmation_tolerance, matches=config.confirmation_matches)
+            height_radius=config.confirmation_tolerance + config.confirmation_climb_error * self._since_closure,
+            tolerance=config.confirmation_tolerance, matches=config.confirmation_matches,
+            climb_error=config.confirmation_climb_error)
 
     def _relocate(self, place: int, relative_yaw: float, grid_code: np.ndarray, direction_code: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray]:

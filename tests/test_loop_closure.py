@@ -110,3 +110,21 @@ def test_the_papers_rule_more_than_six_of_ten_frames(agreeing, confirmed):
     views[: 10 - agreeing] = 999
     result = _confirm(themap, odometry[20:30], views, matches=7)
     assert (result >= 0) == confirmed
+
+
+def test_heights_may_drift_by_the_climb_error_but_levels_stay_apart():
+    themap = _Map(_path(40, turn_at=25))
+    odometry, templates = _revisit(themap, 30)
+    travelled = SPACING * np.arange(30)
+    odometry[:, 2] += 0.2 * travelled  # the odometry climbs 0.2 m per m on a level floor
+    window = slice(10, 30)
+    assert confirm_place(odometry[window], templates[window], 0.0, themap.poses, themap.experiences_of,
+                         np.ones(40, bool), themap.poses[29], radius=5.0, tolerance=1.0, matches=14) == -1
+    assert confirm_place(odometry[window], templates[window], 0.0, themap.poses, themap.experiences_of,
+                         np.ones(40, bool), themap.poses[29], radius=5.0, tolerance=1.0, matches=14,
+                         climb_error=0.25) in (28, 29)
+    # the same place one level (3 m) below the estimate is out of reach when heights may be 2 m off
+    above = themap.poses[29] + np.array([0.0, 0.0, 3.0, 0.0])
+    assert confirm_place(odometry[window], templates[window], 0.0, themap.poses, themap.experiences_of,
+                         np.ones(40, bool), above, radius=5.0, height_radius=2.0, tolerance=1.0, matches=14,
+                         climb_error=0.25) == -1

@@ -3,7 +3,9 @@
 Run: ``python benchmarks/slam_speed.py [--frames N] [--templates 100 1000 10000]``. Frames are the
 testbed's 160×120 camera frames from a drive through the car park (rendered once before timing); before
 timing, the map is filled with the given number of random templates and as many experiences in a chain,
-so matching and relaxation work on a map of that size. Prints the median milliseconds per frame on one core.
+so matching and relaxation work on a map of that size. Prints the median milliseconds per frame on one core,
+and the cost of one least-squares relaxation (``experience_map.relaxation = "least-squares"``) after a loop
+closure that closes a lap of that many experiences (it runs on loop-closure frames only).
 """
 
 from __future__ import annotations
@@ -87,6 +89,27 @@ def measure(templates: int, count: int) -> dict[str, float]:
     return {name: median_ms(values[1:]) for name, values in timings.items()}
 
 
+def closure_solve_ms(experiences: int) -> tuple[float, int]:
+    """ms and Gauss–Newton iterations of the least-squares relaxation after closing a lap of ``experiences``
+    experiences 0.3 m apart whose odometry turned 2 % too far (about 7° over the lap)."""
+    import math
+
+    from neuroslam.config import ExperienceMapConfig
+    from neuroslam.experience_map import ExperienceMap
+
+    experience_map = ExperienceMap(ExperienceMapConfig(threshold=0.5, relaxation="least-squares"),
+                                   grid_size=(10**6, 10**6, 100))
+    experience_map.update(0, np.zeros(3), np.zeros(2), 0.0)
+    for k in range(1, experiences):
+        experience_map.integrate(0.3, 2 * math.pi / experiences * 1.02, 0.0)
+        experience_map.update(k, np.array([10.0 * k, 0.0, 0.0]), np.zeros(2), float(k))
+    experience_map.integrate(0.3, 0.0, 0.0)
+    started = time.perf_counter()
+    update = experience_map.update(0, np.zeros(3), np.zeros(2), float(experiences))
+    assert update.loop_closure
+    return 1000 * (time.perf_counter() - started), experience_map.solver_iterations
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--frames", type=int, default=200, help="frames timed per map size (default: 200)")
@@ -98,6 +121,10 @@ def main() -> None:
     print(f"{'component':<16}" + "".join(f"{n:>12,d} templates"[-22:] for n in args.templates))
     for name in names:
         print(f"{name:<16}" + "".join(f"{results[n][name]:>22.3f}" for n in args.templates))
+    print("\nleast-squares relaxation after closing a lap (loop-closure frames only)")
+    for n in args.templates:
+        ms, iterations = closure_solve_ms(n)
+        print(f"{n:>8,d} experiences: {ms:8.1f} ms ({iterations} Gauss-Newton iterations)")
 
 
 if __name__ == "__main__":

@@ -26,7 +26,7 @@ from .config import ExperienceMapConfig
 __all__ = ["ExperienceMap", "MapUpdate"]
 
 SETTLED = 1e-4  # m or rad: relaxation stops once no experience moves more than this in a pass
-LEAST_SQUARES_ITERATIONS = 10  # Gauss–Newton iterations at most per solve
+LEAST_SQUARES_ITERATIONS = 3  # Gauss–Newton iterations at most per frame; an unfinished solve goes on next frame
 LEAST_SQUARES_SETTLED = 1e-3  # m or rad: the solve stops once no experience moves more than this
 LEAST_SQUARES_TRIGGER = 1e-2  # m or rad: a loop closure with a smaller error does not start a solve
 
@@ -305,7 +305,9 @@ class ExperienceMap:
             r_z = z_source + height − z_target,   r_yaw = wrap(yaw_source + facing − yaw_target),
 
         linearised (including the dependence of r_xy on the source's yaw), and the normal equations
-        solved by a sparse LU, the first experience held fixed; a few iterations converge (to 1 mm).
+        solved by a sparse LU, the first experience held fixed. A frame runs at most
+        ``LEAST_SQUARES_ITERATIONS`` iterations; a solve that has not converged (no experience moving more
+        than 1 mm) goes on at the next frame, so no frame waits for a long solve.
         """
         n, count = self.size, self._links.count
         sources, targets = self.links[:, 0], self.links[:, 1]
@@ -335,8 +337,8 @@ class ExperienceMap:
             poses[1:] += step
             poses[:, 3] = _wrap(poses[:, 3])
             if len(step) == 0 or np.abs(step).max() < LEAST_SQUARES_SETTLED:
-                break
-        self._settled = True
+                self._settled = True
+                return
 
     def _relax_passes(self, passes: int) -> None:
         """Eq. 25 over all links at once, ``passes`` times.

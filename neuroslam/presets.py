@@ -38,6 +38,12 @@ def _profile_odometry(**regions: Region) -> VisualOdometryConfig:
     return VisualOdometryConfig(planar_motion="profile", speed_scale=14.6, yaw_scale=0.9, **regions)
 
 
+def _paper_map(correction: float, relaxation_passes: int) -> ExperienceMapConfig:
+    """The paper's experience map: eq. 25's passes, loops closed by eq. 22's code match alone."""
+    return ExperienceMapConfig(correction=correction, relaxation_passes=relaxation_passes, relaxation="passes",
+                               loop_closure="code")
+
+
 def _sim() -> Config:
     """The testbed's camera (160×120, 80°): the defaults of :class:`~neuroslam.config.Config`."""
     return Config()
@@ -52,7 +58,7 @@ def _synper() -> Config:
                                    height_region=Region(10 / 120, 110 / 120, 10 / 160, 150 / 160)),
         grid_cells=_paper_grid(0.0002, 0.1),
         head_direction=HeadDirectionConfig(inhibition_variance=3.0, global_inhibition=0.0002, view_injection=0.001),
-        experience_map=ExperienceMapConfig(correction=0.5, relaxation_passes=5),
+        experience_map=_paper_map(correction=0.5, relaxation_passes=5),
     )
 
 
@@ -66,7 +72,7 @@ def _synpan() -> Config:
         local_view=LocalViewConfig(thumbnail=(20, 48), max_column_shift=23),
         grid_cells=_paper_grid(0.00025, 0.1),
         head_direction=HeadDirectionConfig(inhibition_variance=3.1, global_inhibition=0.0003, view_injection=0.01),
-        experience_map=ExperienceMapConfig(correction=0.005, relaxation_passes=1),
+        experience_map=_paper_map(correction=0.005, relaxation_passes=1),
     )
 
 
@@ -78,7 +84,7 @@ def _carpark() -> Config:
         local_view=LocalViewConfig(thumbnail=(27, 48)),
         grid_cells=_paper_grid(0.0002, 0.1),
         head_direction=HeadDirectionConfig(inhibition_variance=3.1, global_inhibition=0.0002, view_injection=0.1),
-        experience_map=ExperienceMapConfig(correction=0.5, relaxation_passes=5),
+        experience_map=_paper_map(correction=0.5, relaxation_passes=5),
     )
 
 

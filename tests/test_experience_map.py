@@ -27,7 +27,8 @@ def test_new_experience_link_points_the_way_the_robot_went():
 
 def _square_loop(error_scale):
     """A 4 × 4 m square driven counter-clockwise with the last side measured ``error_scale`` too long."""
-    experience_map = ExperienceMap(ExperienceMapConfig(threshold=0.5, relaxation_passes=0, idle_passes=0))
+    experience_map = ExperienceMap(ExperienceMapConfig(threshold=0.5, relaxation_passes=0, idle_passes=0,
+                                                       relaxation="passes"))
     codes = [np.array([x, y, 0.0]) for x, y in [(0, 0), (4, 0), (4, 4), (0, 4)]]
     experience_map.update(0, codes[0], np.zeros(2), 0.0)
     for k in range(1, 4):

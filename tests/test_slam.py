@@ -47,8 +47,10 @@ def test_bad_input_is_refused_and_changes_nothing(bad, args, field):
 
 def test_a_revisited_route_reuses_its_views_and_closes_loops():
     """A square route of 40 distinct views driven twice with exact odometry: the second lap re-enters the
-    first lap's experiences instead of making new ones."""
-    slam = NeuroSLAM()
+    first lap's experiences instead of making new ones (the paper's experience map: eq. 22 and eq. 25)."""
+    from neuroslam.config import Config, ExperienceMapConfig
+
+    slam = NeuroSLAM(Config(experience_map=ExperienceMapConfig(loop_closure="code", relaxation="passes")))
     views = [image(100 + k) for k in range(40)]
     t = 0.0
     closures = 0
@@ -94,15 +96,17 @@ def _square_laps(config, jump):
 
 def test_confirmed_loop_closure_corrects_drift_that_the_codes_cannot():
     """A 6 m odometry error before the second lap (three grid cells: eq. 22's codes no longer match): the
-    paper's rule makes new experiences on a parallel track; the confirmed rule recognises the run of views,
+    paper's rule makes new experiences on a parallel track; the confirmed rule (the grid-network paper's more
+    than 6 of the last 10 frames) recognises the run of views,
     moves the packets back, closes the loop, and the least-squares map puts the frames back on the square."""
     from neuroslam.config import Config, ExperienceMapConfig
 
-    code, code_closures = _square_laps(Config(), jump=6.0)
+    code, code_closures = _square_laps(
+        Config(experience_map=ExperienceMapConfig(loop_closure="code", relaxation="passes")), jump=6.0)
     assert code_closures == 0 and code.experience_map.size == 80
     confirmed_config = Config(experience_map=ExperienceMapConfig(
         loop_closure="confirmed", relaxation="least-squares", confirmation_age=2.0, confirmation_drift=0.2,
-        confirmation_tolerance=1.0))
+        confirmation_tolerance=1.0, confirmation_window=10, confirmation_matches=7, confirmation_spacing=0.0))
     confirmed, closures = _square_laps(confirmed_config, jump=6.0)
     assert closures >= 1 and confirmed.experience_map.size < 50
     # the second lap's frames in the final map lie on the first lap's, 6 m off without the rule; the

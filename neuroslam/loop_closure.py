@@ -31,6 +31,7 @@ def confirm_place(
     matches: int,
     climb_error: float = 0.0,
     height_radius: float | None = None,
+    turn: float = 0.0,
 ) -> int:
     """The old experience the last frames confirm the robot is at, or -1.
 
@@ -40,9 +41,12 @@ def confirm_place(
     frame agrees when an eligible experience of its view lies within ``tolerance`` of where it is
     mapped: horizontally within ``tolerance``, vertically within ``tolerance`` plus ``climb_error`` times
     the horizontal distance between that frame and the current one (the odometry's heights drift faster
-    than its positions). Hypotheses with at least ``matches`` agreeing frames are confirmed; the one
-    nearest to the robot's current estimate wins, unless another confirmed one lies more than
-    ``2 * tolerance`` from it (a place that several parts of the map explain equally is not confirmed).
+    than its positions). A view whose eligible experiences within ``radius`` of where the frame could be
+    spread over more than ``3 * tolerance`` (seen along a uniform street, or at several places) is no
+    evidence and never agrees. Hypotheses with at
+    least ``matches`` agreeing frames are confirmed; the one nearest to the robot's current estimate wins,
+    unless another confirmed one lies more than ``2 * tolerance`` from it (a place that several parts of
+    the map explain equally is not confirmed).
     Hypotheses horizontally farther than ``radius`` from the estimate, or vertically farther than
     ``height_radius`` (default ``radius``), are not considered. All hypotheses at once; one pass per
     window frame.
@@ -57,10 +61,17 @@ def confirm_place(
         robot: (4,) the robot's current estimate in the map.
         radius, tolerance, height_radius: m. matches: frames that must agree (the current frame counts).
         climb_error: m of height per m of travel the window's odometry may be off by.
+        turn: rad; when ``radius`` exceeds ``2 * tolerance`` (the robot is not localised), a window whose
+            heading turned less than this confirms nothing: on a straight the views of a uniform street or
+            corridor repeat along it, and nothing in the window fixes where along it the robot is.
     """
     window_poses = np.asarray(window_poses, dtype=float)
     if len(window_poses) < matches:
         return -1
+    if radius > 2 * tolerance and turn > 0:
+        headings = np.unwrap(window_poses[:, 3])
+        if headings.max() - headings.min() < turn:
+            return -1
     now = window_poses[-1]
     hypotheses = experiences_of(int(window_templates[-1]))
     hypotheses = hypotheses[eligible[hypotheses]]
@@ -82,6 +93,10 @@ def confirm_place(
         mapped = np.stack([map_poses[hypotheses, 0] + cos * dx - sin * dy,
                            map_poses[hypotheses, 1] + sin * dx + cos * dy, map_poses[hypotheses, 2] + dz], axis=1)
         gaps = np.linalg.norm(mapped[:, None, :2] - map_poses[None, places, :2], axis=2)
+        reach = gaps.min(axis=0) <= radius  # where this frame could be
+        extent = np.ptp(map_poses[places[reach], :2], axis=0) if reach.any() else np.zeros(2)
+        if math.hypot(*extent) > 3 * tolerance:
+            continue  # a view seen along many metres (or at several places) within reach says little
         climbs = np.abs(mapped[:, None, 2] - map_poses[None, places, 2])
         agree = (gaps <= tolerance) & (climbs <= tolerance + climb_error * math.hypot(dx, dy))
         support += agree.any(axis=1)

@@ -128,3 +128,19 @@ def test_heights_may_drift_by_the_climb_error_but_levels_stay_apart():
     assert confirm_place(odometry[window], templates[window], 0.0, themap.poses, themap.experiences_of,
                          np.ones(40, bool), above, radius=5.0, height_radius=2.0, tolerance=1.0, matches=14,
                          climb_error=0.25) == -1
+
+
+def test_views_seen_along_many_metres_are_no_evidence():
+    """Each view of the window was also seen 5 m further along the path (a uniform street): the window
+    cannot say where along it the robot is, so nothing is confirmed."""
+    themap = _Map(_path(40, turn_at=25))
+    odometry, templates = _revisit(themap, 30)
+
+    def also_further(template):
+        own = themap.experiences_of(template)
+        return np.concatenate([own, np.minimum(own + 10, 39)])  # and the experiences 10 × 0.5 m on
+
+    assert confirm_place(odometry[10:30], templates[10:30], 0.0, themap.poses, themap.experiences_of,
+                         np.ones(40, bool), themap.poses[29], radius=20.0, tolerance=1.0, matches=14) in (28, 29)
+    assert confirm_place(odometry[10:30], templates[10:30], 0.0, themap.poses, also_further,
+                         np.ones(40, bool), themap.poses[29], radius=20.0, tolerance=1.0, matches=14) == -1

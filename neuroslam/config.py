@@ -330,9 +330,6 @@ class ExperienceMapConfig:
             ``confirmation_tolerance`` plus this times that distance of the current estimate.
         confirmation_climb_error: m of height per m driven: the same for heights (the visual odometry's
             height drifts faster than its position), and how far the window's heights may disagree.
-        confirmation_turn: rad; while the robot is not localised (more than ``confirmation_tolerance /
-            confirmation_drift`` metres since it was last on an old experience), only a window that
-            turned at least this much confirms a place (0: any window).
     """
 
     view_weight: float = 10.0
@@ -351,7 +348,6 @@ class ExperienceMapConfig:
     confirmation_age: float = 30.0
     confirmation_drift: float = 0.1
     confirmation_climb_error: float = 0.3
-    confirmation_turn: float = 0.0
 
     def __post_init__(self) -> None:
         self.validate()
@@ -379,7 +375,7 @@ class ExperienceMapConfig:
                  "must be an integer from 1 to confirmation_window")
         _positive(path, confirmation_tolerance=self.confirmation_tolerance)
         _non_negative(path, confirmation_age=self.confirmation_age, confirmation_drift=self.confirmation_drift,
-                      confirmation_climb_error=self.confirmation_climb_error, confirmation_turn=self.confirmation_turn,
+                      confirmation_climb_error=self.confirmation_climb_error,
                       confirmation_spacing=self.confirmation_spacing)
 
 

@@ -31,7 +31,6 @@ def confirm_place(
     matches: int,
     climb_error: float = 0.0,
     height_radius: float | None = None,
-    turn: float = 0.0,
 ) -> int:
     """The old experience the last frames confirm the robot is at, or -1.
 
@@ -61,17 +60,10 @@ def confirm_place(
         robot: (4,) the robot's current estimate in the map.
         radius, tolerance, height_radius: m. matches: frames that must agree (the current frame counts).
         climb_error: m of height per m of travel the window's odometry may be off by.
-        turn: rad; when ``radius`` exceeds ``2 * tolerance`` (the robot is not localised), a window whose
-            heading turned less than this confirms nothing: on a straight the views of a uniform street or
-            corridor repeat along it, and nothing in the window fixes where along it the robot is.
     """
     window_poses = np.asarray(window_poses, dtype=float)
     if len(window_poses) < matches:
         return -1
-    if radius > 2 * tolerance and turn > 0:
-        headings = np.unwrap(window_poses[:, 3])
-        if headings.max() - headings.min() < turn:
-            return -1
     now = window_poses[-1]
     hypotheses = experiences_of(int(window_templates[-1]))
     hypotheses = hypotheses[eligible[hypotheses]]

@@ -243,7 +243,7 @@ class NeuroSLAM:
             themap.robot_pose(), radius=config.confirmation_tolerance + config.confirmation_drift * self._since_closure,
             height_radius=config.confirmation_tolerance + config.confirmation_climb_error * self._since_closure,
             tolerance=config.confirmation_tolerance, matches=config.confirmation_matches,
-            climb_error=config.confirmation_climb_error, turn=config.confirmation_turn)
+            climb_error=config.confirmation_climb_error)
 
     def _relocate(self, place: int, relative_yaw: float, grid_code: np.ndarray, direction_code: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray]:

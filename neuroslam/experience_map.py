@@ -8,7 +8,9 @@ stores the relative pose in its source's frame: distance, heading (direction of 
 source's yaw), facing (yaw change) and height change, plus the time it took. Re-entering an existing
 experience closes a loop; relaxation (eq. 25) then pulls every pair of linked experiences towards the
 relative pose their link stores, all links at once, each experience's correction divided by its
-number of links (a plain sum diverges at experiences with several links).
+number of links (a plain sum diverges at experiences with several links); or, with ``relaxation =
+"least-squares"`` (the ``sim`` default), the minimum of the same link errors is solved for directly
+(:meth:`ExperienceMap._solve`), which spreads a loop's error over the whole loop.
 """
 
 from __future__ import annotations

@@ -8,7 +8,9 @@ Per frame, in the paper's order (Algorithm 1):
 4. local view calibration: a familiar view injects the activity it learned (eqs. 10–11) into both
    networks; a new view learns the current packets;
 5. experience map: the odometry since the current experience, matching, creation, loop closure and
-   relaxation (eqs. 21–25).
+   relaxation (eqs. 21–25). With ``loop_closure = "confirmed"`` (the ``sim`` default) a loop may close
+   only where the last frames' views confirm an old place (:mod:`neuroslam.loop_closure`), and the
+   packets are first moved to that place's codes.
 
 Every frame's state stays inspectable: ``grid_cells.activity``, ``head_direction.activity``, the last
 :class:`Estimate`, the map arrays.
@@ -99,7 +101,7 @@ class NeuroSLAM:
         self._odometry_pose = np.zeros(4)
         # the last frames' (odometry pose, template id), for the confirmed loop-closure rule
         self._recent: deque[tuple[np.ndarray, int]] = deque(maxlen=c.experience_map.confirmation_window)
-        self._since_closure = 0.0  # m driven since the last loop closure
+        self._since_closure = 0.0  # m driven since the robot was last on an old experience (or closed a loop)
         # per frame: its experience and the robot's pose relative to it (x, y, z, yaw), for trajectory()
         self._frame_experiences = _Growing(0, np.int64)
         self._frame_offsets = _Growing(4, np.float64)

@@ -42,10 +42,9 @@ def confirm_place(
     the horizontal distance between that frame and the current one (the odometry's heights drift faster
     than its positions). A view whose eligible experiences within ``radius`` of where the frame could be
     spread over more than ``3 * tolerance`` (seen along a uniform street, or at several places) is no
-    evidence and never agrees. Hypotheses with at
-    least ``matches`` agreeing frames are confirmed; the one nearest to the robot's current estimate wins,
-    unless another confirmed one lies more than ``2 * tolerance`` from it (a place that several parts of
-    the map explain equally is not confirmed).
+    evidence and never agrees. Hypotheses with at least ``matches`` agreeing frames are confirmed; the one
+    nearest to the robot's current estimate wins, unless another confirmed one lies more than
+    ``2 * tolerance`` from it (a place that several parts of the map explain equally is not confirmed).
     Hypotheses horizontally farther than ``radius`` from the estimate, or vertically farther than
     ``height_radius`` (default ``radius``), are not considered. All hypotheses at once; one pass per
     window frame.

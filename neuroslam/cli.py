@@ -100,9 +100,10 @@ def _parser() -> argparse.ArgumentParser:
     drive.add_argument("--panoramic", action="store_true", help="stitch four cameras into a 360-degree strip")
     drive.add_argument("--quality", choices=["fast", "high"], default="fast", help="visual profile (default: fast)")
     _slam_options(drive)
-    drive.add_argument("--odometry", choices=["visual", "wheel"], default="visual",
-                       help="self-motion from the camera (visual odometry) or from the wheel encoders with the "
-                       "camera's height rate (default: visual)")
+    drive.add_argument("--odometry", choices=["visual", "wheel", "visual-inertial"], default="visual",
+                       help="self-motion from the camera (visual odometry), from the wheel encoders with the "
+                       "camera's height rate, or from the camera with the height rate from the IMU's gravity "
+                       "direction (visual-inertial; not the paper's) (default: visual)")
     drive.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
     _record_option(drive)
 
@@ -150,11 +151,13 @@ def _drive(args: argparse.Namespace) -> int:
     import sim  # the simulator is only needed here; importing it selects headless rendering
 
     from .evaluation import run_metrics
+    from .inertial import GravityPitch
     from .tum import write_tum, yaw_quaternion
     from .vision.odometry import SelfMotion
     from .vision.preprocessing import grey
 
     slam = _slam_from(args)
+    gravity = GravityPitch()
 
     world, route_name = _world_and_route(args)
     camera = sim.CameraConfig(width=args.width, height=args.height, panoramic=args.panoramic)
@@ -172,6 +175,11 @@ def _drive(args: argparse.Namespace) -> int:
         for frame in drive:
             slam_started = time.perf_counter()
             motion = None
+            if args.odometry == "visual-inertial":  # the camera for speed and turn; the IMU for the pitch
+                dt = 0.0 if previous_time is None else frame.time - previous_time
+                visual = slam.visual_odometry.step(grey(frame.image), dt)
+                pitch = gravity.step(frame.imu.accelerometer, dt)
+                motion = SelfMotion(visual.forward_speed, visual.yaw_rate, visual.forward_speed * math.sin(pitch))
             if args.odometry == "wheel":  # encoders for speed and turn; the camera for the height rate
                 dt = 0.0 if previous_time is None else frame.time - previous_time
                 climb = slam.visual_odometry.step(grey(frame.image), dt).climb_rate

@@ -30,7 +30,7 @@ def test_worlds_lists_levels_and_routes(capsys):
     assert "carpark" in out and "levels at 0, 3 m" in out and "main (" in out and "gen:SEED" in out
 
 
-@pytest.mark.parametrize("odometry", ["visual", "wheel"])
+@pytest.mark.parametrize("odometry", ["visual", "wheel", "visual-inertial"])
 def test_short_drive_with_slam_writes_trajectories_and_summary(tmp_path, capsys, odometry):
     assert main(["drive", "gen:2", "--max-frames", "30", "--out", str(tmp_path), "--seed", "1",
                  "--odometry", odometry]) == 0

@@ -110,7 +110,7 @@ def closure_solve_ms(experiences: int) -> tuple[float, float, int]:
     assert update.loop_closure
     first = time.perf_counter() - started
     frames = 1
-    while not experience_map._settled:
+    while not experience_map.settled:
         experience_map._relax(0)
         frames += 1
     return 1000 * first, 1000 * (time.perf_counter() - started), frames

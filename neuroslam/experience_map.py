@@ -150,6 +150,11 @@ class ExperienceMap:
         """(L,) seconds between leaving the source and reaching the target."""
         return self._link_times.view
 
+    @property
+    def settled(self) -> bool:
+        """No relaxation is pending: the last loop closure's error has been spread (or there was none)."""
+        return self._settled
+
     def robot_pose(self) -> np.ndarray:
         """The robot's pose in the map: the current experience composed with the odometry since it."""
         if self.current < 0:
@@ -317,7 +322,7 @@ class ExperienceMap:
         poses = self._poses.data[:n]
         rows = np.arange(count)
         ones = np.ones(count)
-        for self.solver_iterations in range(1, LEAST_SQUARES_ITERATIONS + 1):
+        for _ in range(LEAST_SQUARES_ITERATIONS):
             direction = poses[sources, 3] + heading
             cos, sin = distance * np.cos(direction), distance * np.sin(direction)
             residual = np.concatenate([

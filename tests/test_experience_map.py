@@ -112,7 +112,7 @@ def test_least_squares_relaxation_reaches_the_minimum_of_eq_25s_link_errors():
     solved = _loop_with("least-squares")
     for _ in range(5):  # a frame runs at most 3 Gauss–Newton iterations; an unfinished solve goes on
         solved._relax(0)
-    assert solved._settled
+    assert solved.settled
     poses, links, link_poses = solved.poses.copy(), solved.links, solved.link_poses
     assert poses[0] == pytest.approx([0, 0, 0, 0], abs=1e-6)  # the first experience holds the map in place
     cost = _link_cost(poses, links, link_poses)

@@ -175,13 +175,12 @@ def _drive(args: argparse.Namespace) -> int:
         for frame in drive:
             slam_started = time.perf_counter()
             motion = None
+            dt = 0.0 if previous_time is None else frame.time - previous_time
             if args.odometry == "visual-inertial":  # the camera for speed and turn; the IMU for the pitch
-                dt = 0.0 if previous_time is None else frame.time - previous_time
                 visual = slam.visual_odometry.step(grey(frame.image), dt)
                 pitch = gravity.step(frame.imu.accelerometer, dt)
                 motion = SelfMotion(visual.forward_speed, visual.yaw_rate, visual.forward_speed * math.sin(pitch))
-            if args.odometry == "wheel":  # encoders for speed and turn; the camera for the height rate
-                dt = 0.0 if previous_time is None else frame.time - previous_time
+            elif args.odometry == "wheel":  # encoders for speed and turn; the camera for the height rate
                 climb = slam.visual_odometry.step(grey(frame.image), dt).climb_rate
                 motion = SelfMotion(frame.odometry.forward_speed, frame.odometry.yaw_rate, climb)
             estimate = slam.step(frame.image, frame.time, odometry=motion)

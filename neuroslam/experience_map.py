@@ -210,7 +210,7 @@ class ExperienceMap:
         """Experiences that can score under the threshold: when a different view alone costs more than the
         threshold, only the experiences of this view (an exact shortcut, not an approximation)."""
         if self.config.view_weight > self.config.threshold:
-            return np.asarray(self._by_template.get(template_id, ()), dtype=np.int64)
+            return self.experiences_of(template_id)
         return np.arange(self.size)
 
     def update(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float, *,
@@ -258,8 +258,8 @@ class ExperienceMap:
             error[3] = float(_wrap(error[3]))
             self._link(previous, best, time)
             self.loop_closures += 1
-            settled = LEAST_SQUARES_TRIGGER if self.config.relaxation == "least-squares" else SETTLED
-            if np.abs(error).max() >= settled:
+            trigger = LEAST_SQUARES_TRIGGER if self.config.relaxation == "least-squares" else SETTLED
+            if np.abs(error).max() >= trigger:
                 self._settled = False
         self.current = best
         self.relative = offset

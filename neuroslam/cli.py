@@ -89,8 +89,9 @@ def _parser() -> argparse.ArgumentParser:
         description="Drive the robot along a route under MuJoCo physics, run NeuroSLAM on its camera frames, and "
         "write into the output folder: groundtruth.tum, slam.tum (every frame in the final map), slam_online.tum "
         "(the estimate as it was at each frame), odometry.tum "
-        "(the self-motion integrated without the map), wheel_odometry.tum, experiences.tum (the final map) "
-        "and metrics.json (map size, loop closures and how many were false, trajectory and map errors after "
+        "(the self-motion integrated without the map), wheel_odometry.tum, experiences.tum (the final map), "
+        "map.npz (the whole SLAM state, to continue from) and metrics.json (map size, loop closures and how many "
+        "were false, trajectory and map errors after "
         "Sim(3) and SE(3) alignment, relative errors over 10 m, floor-level accuracy, timings).",
     )
     drive.add_argument("world", nargs="?", default="carpark",
@@ -110,7 +111,7 @@ def _parser() -> argparse.ArgumentParser:
     run = commands.add_parser(
         "run", help="run NeuroSLAM on a folder of recorded frames",
         description="Run NeuroSLAM on a folder of PNG/JPEG frames (natural order; a frames/ subfolder is used if "
-        "present) and write slam.tum, slam_online.tum, odometry.tum, experiences.tum and metrics.json; with "
+        "present) and write slam.tum, slam_online.tum, odometry.tum, experiences.tum, map.npz and metrics.json; with "
         "--groundtruth (TUM, whose times become the frames' times, or the NeuroSLAM CSV frame,x,y,z,rx,ry,rz) "
         "metrics.json adds the trajectory and map errors.")
     run.add_argument("frames", type=Path, help="folder of frames (for example one written by neuroslam record)")
@@ -218,6 +219,8 @@ def _drive(args: argparse.Namespace) -> int:
         experience_frames=np.searchsorted(times, experience_map.creation_times),
         closure_frames=closures[:, 0], closure_experiences=closures[:, 1], online_estimate=online,
     )
+    truth_poses = np.array([t.pose for t in truths])
+    _save_map(slam, out, times, truth_poses, {"world": world.name, "route": drive.route.name})
     summary = {
         "world": world.name,
         "route": drive.route.name,
@@ -275,6 +278,18 @@ def _write_slam(out: Path, times: np.ndarray, estimates: np.ndarray, online: np.
     experience_map = slam.experience_map
     write_tum(out / "experiences.tum", experience_map.creation_times, experience_map.poses[:, :3],
               yaw_quaternion(experience_map.poses[:, 3]))
+
+
+def _save_map(slam, out: Path, times: np.ndarray, truth: np.ndarray | None, metadata: dict) -> None:
+    """out/map.npz, the final map; with ground truth, each experience's true pose at its creation
+    (``experience_truth``), so later sessions that load the map can score it."""
+    from .slam import MAP_FILE
+
+    extra = {}
+    if truth is not None:
+        frames = np.minimum(np.searchsorted(times, slam.experience_map.creation_times), len(times) - 1)
+        extra["experience_truth"] = truth[frames]
+    slam.save(out / MAP_FILE, extra=extra, metadata=metadata)
 
 
 def _report(path: Path, title: str, times: np.ndarray, truth: np.ndarray | None, estimates: np.ndarray,
@@ -347,6 +362,8 @@ def _run(args: argparse.Namespace) -> int:
     online, self_motion = np.array(estimates), np.array(self_motion)
     estimates = slam.trajectory()
     _write_slam(out, times, estimates, online, self_motion, slam)
+    _save_map(slam, out, times, None if groundtruth is None else groundtruth.poses,
+              {"frames": str(Path(args.frames).resolve())})
     experience_map = slam.experience_map
     metrics = {"frames": len(frames), "templates": slam.local_view.count, "experiences": experience_map.size,
                "loop_closures": experience_map.loop_closures}

@@ -31,6 +31,14 @@ SETTLED = 1e-4  # m or rad: relaxation stops once no experience moves more than 
 LEAST_SQUARES_ITERATIONS = 3  # Gauss–Newton iterations at most per frame; an unfinished solve goes on next frame
 LEAST_SQUARES_SETTLED = 1e-3  # m or rad: the solve stops once no experience moves more than this
 LEAST_SQUARES_TRIGGER = 1e-2  # m or rad: a loop closure with a smaller error does not start a solve
+# what state_dict() saves: state name → (attribute, columns, dtype)
+_STATE_ARRAYS = {
+    "poses": ("_poses", 4, np.float64), "grid_codes": ("_grid_codes", 3, np.float64),
+    "direction_codes": ("_direction_codes", 2, np.float64), "template_ids": ("_templates", 0, np.int64),
+    "creation_times": ("_times", 0, np.float64), "links": ("_links", 2, np.int64),
+    "link_poses": ("_link_poses", 4, np.float64), "link_times": ("_link_times", 0, np.float64),
+    "degree": ("_degree", 0, np.int64),
+}
 
 
 def _wrap(angle: np.ndarray | float) -> np.ndarray | float:
@@ -68,6 +76,20 @@ class _Growing:
     @property
     def view(self) -> np.ndarray:
         return self.data[: self.count]
+
+    @classmethod
+    def of(cls, rows: np.ndarray, columns: int, dtype: type) -> _Growing:
+        """A growing array holding a copy of ``rows`` (capacity at least 64)."""
+        rows = np.asarray(rows, dtype=dtype)
+        expected = (len(rows), columns) if columns else (len(rows),)
+        if rows.shape != expected:
+            raise ValueError(f"shape {rows.shape}, expected {expected}")
+        grown = cls(columns, dtype)
+        if len(rows) > len(grown.data):
+            grown.data = np.zeros((len(rows), *grown.data.shape[1:]), dtype=dtype)
+        grown.data[: len(rows)] = rows
+        grown.count = len(rows)
+        return grown
 
 
 class ExperienceMap:
@@ -154,6 +176,43 @@ class ExperienceMap:
     def settled(self) -> bool:
         """No relaxation is pending: the last loop closure's error has been spread (or there was none)."""
         return self._settled
+
+    def state_dict(self) -> dict[str, np.ndarray]:
+        """Experiences, links and the robot's place among them, for saving (:meth:`load_state_dict`)."""
+        state = {name: getattr(self, attribute).view.copy() for name, (attribute, _, _) in _STATE_ARRAYS.items()}
+        state.update(settled=np.bool_(self._settled), current=np.int64(self.current), relative=self.relative.copy(),
+                     loop_closures=np.int64(self.loop_closures))
+        return state
+
+    def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
+        """Restore :meth:`state_dict`'s output. Raises ValueError when it is inconsistent."""
+        grown = {}
+        for name, (attribute, columns, dtype) in _STATE_ARRAYS.items():
+            try:
+                grown[attribute] = _Growing.of(state[name], columns, dtype)
+            except ValueError as error:
+                raise ValueError(f"{name}: {error}") from None
+        size, links = grown["_poses"].count, grown["_links"].view
+        if any(grown[attribute].count != size for attribute in ("_grid_codes", "_direction_codes", "_templates",
+                                                                 "_times", "_degree")):
+            raise ValueError("the per-experience arrays differ in length")
+        if any(grown[attribute].count != len(links) for attribute in ("_link_poses", "_link_times")):
+            raise ValueError("the per-link arrays differ in length")
+        if len(links) and (links.min() < 0 or links.max() >= size):
+            raise ValueError("a link names an experience that does not exist")
+        current, relative = int(state["current"]), np.asarray(state["relative"], dtype=float)
+        if not -1 <= current < size or (current == -1) != (size == 0) or relative.shape != (4,):
+            raise ValueError(f"current experience {current} does not fit a map of {size}")
+        for attribute, value in grown.items():
+            setattr(self, attribute, value)
+        self._linked = {(int(a), int(b)) for a, b in links}
+        self._by_template = {}
+        for experience, template in enumerate(self.template_ids):
+            self._by_template.setdefault(int(template), []).append(experience)
+        self._settled = bool(state["settled"])
+        self.current = current
+        self.relative = relative.copy()
+        self.loop_closures = int(state["loop_closures"])
 
     def robot_pose(self) -> np.ndarray:
         """The robot's pose in the map: the current experience composed with the odometry since it."""

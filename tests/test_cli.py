@@ -7,6 +7,7 @@ import sys
 import numpy as np
 import pytest
 
+from neuroslam import NeuroSLAM
 from neuroslam.cli import main
 from neuroslam.tum import read_tum
 
@@ -55,6 +56,11 @@ def test_short_drive_with_slam_writes_trajectories_and_summary(tmp_path, capsys,
     assert 0 <= summary["level_accuracy"] <= 1 and summary["false_loop_closures"] <= summary["loop_closures"]
     assert set(summary["ms_per_frame"]) == {"slam", "physics", "render", "total"}
     assert "levels visited" in capsys.readouterr().out
+    saved = NeuroSLAM.load(tmp_path / "map.npz")  # the final map, with each experience's true pose
+    assert saved.experience_map.size == summary["experiences"] and saved.frames == 30
+    truth = saved.map_extra["experience_truth"]
+    assert truth.shape == (summary["experiences"], 4)
+    np.testing.assert_allclose(truth[0, :3], read_tum(tmp_path / "groundtruth.tum")[1][0])
 
 
 @pytest.mark.parametrize("args, text", [

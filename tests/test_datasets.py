@@ -60,7 +60,7 @@ def test_record_then_run_with_ground_truth(tmp_path, capsys):
     assert main(["run", str(dataset), "--groundtruth", str(dataset / "groundtruth.tum"), "--out", str(run)]) == 0
     metrics = json.loads((run / "metrics.json").read_text())
     assert metrics["frames"] == 40 and metrics["ate_rmse_m"]["slam"] >= 0 and metrics["level_accuracy"] is None
-    for name in ("slam.tum", "slam_online.tum", "odometry.tum", "experiences.tum", "report.png"):
+    for name in ("slam.tum", "slam_online.tum", "odometry.tum", "experiences.tum", "report.png", "map.npz"):
         assert (run / name).is_file()
     # a folder of frames without ground truth runs too, timed by --rate
     assert main(["run", str(dataset / "frames"), "--rate", "5", "--out", str(tmp_path / "bare")]) == 0

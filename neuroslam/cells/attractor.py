@@ -128,6 +128,18 @@ class AttractorNetwork:
         self.activity = np.zeros(self.shape, dtype=dtype)
         self.reset(start if start is not None else [0.0] * self.dimensions)
 
+    def state_dict(self) -> dict[str, np.ndarray]:
+        """The network's state (its activity), for saving; :meth:`load_state_dict` restores it exactly."""
+        return {"activity": self.activity.copy()}
+
+    def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
+        """Restore :meth:`state_dict`'s output. Raises ValueError when it does not fit this network."""
+        activity = np.asarray(state["activity"])
+        if activity.shape != self.shape or activity.dtype != self.dtype:
+            raise ValueError(f"activity is {activity.dtype} {activity.shape}, the network is "
+                             f"{np.dtype(self.dtype)} {self.shape}")
+        self.activity = activity.copy()
+
     @classmethod
     def from_config(cls, config) -> AttractorNetwork:
         """A network from a :class:`~neuroslam.config.GridCellConfig` or

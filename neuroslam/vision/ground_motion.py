@@ -74,6 +74,26 @@ class GroundMotion:
         self._previous: list[np.ndarray] | None = None
         self._geometry: dict[tuple[int, int], tuple] = {}
 
+    def state_dict(self) -> dict[str, np.ndarray]:
+        """The last frame's motion, support and image pyramid, for saving."""
+        state = {"motion": self.motion.copy(), "support": np.float64(self.support)}
+        for level, image in enumerate(self._previous or []):
+            state[f"previous.{level}"] = image.copy()
+        return state
+
+    def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
+        """Restore :meth:`state_dict`'s output. Raises ValueError when it does not fit."""
+        motion = np.asarray(state["motion"], dtype=float)
+        if motion.shape != (2,):
+            raise ValueError(f"motion has shape {motion.shape}, expected (2,)")
+        previous = [np.asarray(state[f"previous.{level}"]) for level in range(self.levels)
+                    if f"previous.{level}" in state]
+        if previous and (len(previous) != self.levels or any(image.ndim != 3 or len(image) != 3 for image in previous)):
+            raise ValueError(f"the previous image pyramid has {len(previous)} levels, expected {self.levels}")
+        self.motion = motion.copy()
+        self.support = float(state["support"])
+        self._previous = [image.copy() for image in previous] or None
+
     def _pyramid(self, image: np.ndarray) -> list[np.ndarray]:
         """The image at 1/2^k resolution (means of 2^k x 2^k blocks), coarsest first, each blurred, with its
         central-difference gradients; float32."""

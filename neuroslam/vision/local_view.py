@@ -94,6 +94,27 @@ class LocalViewCells:
         """The stored templates, shape (count, rows, columns), patch-normalised (a view, not a copy)."""
         return self._templates[: self.count]
 
+    def state_dict(self) -> dict[str, np.ndarray]:
+        """The stored templates and their descriptors, for saving (:meth:`load_state_dict` restores them)."""
+        return {"templates": self.templates.copy(), "descriptors": self._descriptors[: self.count].copy()}
+
+    def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
+        """Restore :meth:`state_dict`'s output. Raises ValueError when it does not fit this configuration."""
+        templates, descriptors = np.asarray(state["templates"]), np.asarray(state["descriptors"])
+        count = len(templates)
+        if templates.shape[1:] != self._templates.shape[1:] or templates.dtype != np.float32:
+            raise ValueError(f"templates are {templates.dtype} {templates.shape[1:]}, the thumbnail is float32 "
+                             f"{self._templates.shape[1:]}")
+        if descriptors.shape != (count, self._descriptor_size) or descriptors.dtype != np.float32:
+            raise ValueError(f"descriptors are {descriptors.dtype} {descriptors.shape}, expected float32 "
+                             f"{(count, self._descriptor_size)}")
+        capacity = max(64, count)
+        self._templates = np.empty((capacity, *templates.shape[1:]), dtype=np.float32)
+        self._descriptors = np.empty((capacity, self._descriptor_size), dtype=np.float32)
+        self._templates[:count] = templates
+        self._descriptors[:count] = descriptors
+        self.count = count
+
     def thumbnail(self, grey_image: np.ndarray) -> np.ndarray:
         """The patch-normalised thumbnail of a grey image (crop, area resize, eq. 26)."""
         region = crop(grey_image, self.config.region)

@@ -133,6 +133,30 @@ class VisualOdometry:
             self._ground = GroundMotion(horizontal_fov=horizontal_fov, camera_height=config.camera_height,
                                         camera_forward=config.camera_forward)
 
+    def state_dict(self) -> dict[str, np.ndarray]:
+        """The integrated pitch and the previous frame's profiles (and floor pyramid), for saving."""
+        state = {"pitch": np.float64(self.pitch)}
+        for name, profile in (self._previous or {}).items():
+            state[f"previous.{name}"] = profile.copy()
+        if self._ground is not None:
+            state.update({f"ground.{key}": value for key, value in self._ground.state_dict().items()})
+        return state
+
+    def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
+        """Restore :meth:`state_dict`'s output. Raises ValueError when it does not fit this configuration."""
+        names = ("rotation", "translation", "height")
+        present = [f"previous.{name}" in state for name in names]
+        if any(present) and not all(present):
+            raise ValueError("the previous frame's profiles are incomplete")
+        has_ground = any(key.startswith("ground.") for key in state)
+        if has_ground != (self._ground is not None):
+            raise ValueError("the floor-alignment state does not match odometry.planar_motion")
+        if self._ground is not None:
+            self._ground.load_state_dict({key[7:]: value for key, value in state.items() if key.startswith("ground.")})
+        self.pitch = float(state["pitch"])
+        self._previous = ({name: np.asarray(state[f"previous.{name}"]).copy() for name in names}
+                          if all(present) else None)
+
     def _equal_angle_columns(self, image_width: int) -> tuple[np.ndarray, float]:
         """Where to sample the rotation region's column profile so that its columns are equally spaced in
         angle (a cylindrical profile, in which a rotation is a uniform shift even for a pinhole camera),

@@ -37,7 +37,8 @@ _STATE_ARRAYS = {
     "direction_codes": ("_direction_codes", 2, np.float64), "template_ids": ("_templates", 0, np.int64),
     "creation_times": ("_times", 0, np.float64), "links": ("_links", 2, np.int64),
     "link_poses": ("_link_poses", 4, np.float64), "link_times": ("_link_times", 0, np.float64),
-    "degree": ("_degree", 0, np.int64),
+    "degree": ("_degree", 0, np.int64), "components": ("_components", 0, np.int64),
+    "sessions": ("_sessions", 0, np.int64),
 }
 
 
@@ -72,6 +73,14 @@ class _Growing:
             self.data = np.concatenate([self.data, np.zeros_like(self.data)])
         self.data[self.count] = row
         self.count += 1
+
+    def extend(self, rows: np.ndarray) -> None:
+        """Append several rows at once."""
+        rows = np.asarray(rows, dtype=self.data.dtype)
+        while self.count + len(rows) > len(self.data):
+            self.data = np.concatenate([self.data, np.zeros_like(self.data)])
+        self.data[self.count: self.count + len(rows)] = rows
+        self.count += len(rows)
 
     @property
     def view(self) -> np.ndarray:
@@ -119,12 +128,16 @@ class ExperienceMap:
         self._link_poses = _Growing(4, np.float64)  # distance, heading, facing, height change
         self._link_times = _Growing(0, np.float64)
         self._degree = _Growing(0, np.int64)
+        self._components = _Growing(0, np.int64)  # which connected map each experience belongs to
+        self._sessions = _Growing(0, np.int64)  # which session made each experience
         self._linked: set[tuple[int, int]] = set()
         self._by_template: dict[int, list[int]] = {}
         self._settled = True
         self.current = -1
         self.relative = np.zeros(4)  # odometric pose of the robot in the current experience's frame
         self.loop_closures = 0
+        self.component = 0  # the map the robot is in: new experiences join it, only its experiences match
+        self.session = 0  # the current session (see begin_session)
 
     # the map as arrays -----------------------------------------------------------------------------------
     @property
@@ -168,6 +181,17 @@ class ExperienceMap:
         return self._link_poses.view
 
     @property
+    def components(self) -> np.ndarray:
+        """(N,) the connected map each experience belongs to. Experiences of different components have
+        poses in unrelated frames (separate sessions that have not merged yet)."""
+        return self._components.view
+
+    @property
+    def sessions(self) -> np.ndarray:
+        """(N,) the session that created each experience (0 for the first)."""
+        return self._sessions.view
+
+    @property
     def link_times(self) -> np.ndarray:
         """(L,) seconds between leaving the source and reaching the target."""
         return self._link_times.view
@@ -181,7 +205,8 @@ class ExperienceMap:
         """Experiences, links and the robot's place among them, for saving (:meth:`load_state_dict`)."""
         state = {name: getattr(self, attribute).view.copy() for name, (attribute, _, _) in _STATE_ARRAYS.items()}
         state.update(settled=np.bool_(self._settled), current=np.int64(self.current), relative=self.relative.copy(),
-                     loop_closures=np.int64(self.loop_closures))
+                     loop_closures=np.int64(self.loop_closures), component=np.int64(self.component),
+                     session=np.int64(self.session))
         return state
 
     def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
@@ -194,7 +219,7 @@ class ExperienceMap:
                 raise ValueError(f"{name}: {error}") from None
         size, links = grown["_poses"].count, grown["_links"].view
         if any(grown[attribute].count != size for attribute in ("_grid_codes", "_direction_codes", "_templates",
-                                                                 "_times", "_degree")):
+                                                                 "_times", "_degree", "_components", "_sessions")):
             raise ValueError("the per-experience arrays differ in length")
         if any(grown[attribute].count != len(links) for attribute in ("_link_poses", "_link_times")):
             raise ValueError("the per-link arrays differ in length")
@@ -213,6 +238,101 @@ class ExperienceMap:
         self.current = current
         self.relative = relative.copy()
         self.loop_closures = int(state["loop_closures"])
+        self.component = int(state["component"])
+        self.session = int(state["session"])
+
+    def begin_session(self) -> None:
+        """Start a new session in a new, empty component: the next update creates its first experience at
+        the origin of the component's own frame (its pose relative to the other components is unknown
+        until a merge, :meth:`move_component`)."""
+        self.session = int(self.sessions.max()) + 1 if self.size else self.session + 1
+        self.component = int(self.components.max()) + 1 if self.size else self.component
+        self.current = -1
+        self.relative = np.zeros(4)
+
+    def enter(self, experience: int, relative: np.ndarray) -> None:
+        """Put the robot at ``experience`` (its pose relative to it: ``relative``, x, y, z, yaw) and continue
+        in that experience's component (a session that starts inside a known map)."""
+        self.current = int(experience)
+        self.component = int(self.components[experience])
+        self.relative = np.asarray(relative, dtype=float).copy()
+
+    def move_component(self, component: int, into: int, yaw: float, translation: np.ndarray,
+                       grid_codes: np.ndarray, direction_codes: np.ndarray) -> np.ndarray:
+        """Merge ``component`` into ``into``: its experiences rotate by ``yaw`` (rad, about z through the
+        origin) and then shift by ``translation`` (x, y, z; m), take the given codes ((K, 3) grid and (K, 2)
+        head-direction cells, one row per moved experience in id order), and join ``into``. Returns the ids
+        moved. Links are unchanged (they are relative); the map is relaxed by the loop closure that follows."""
+        moved = np.flatnonzero(self.components == component)
+        poses = self._poses.data[moved]
+        c, s = math.cos(yaw), math.sin(yaw)
+        self._poses.data[moved] = np.stack([c * poses[:, 0] - s * poses[:, 1] + translation[0],
+                                            s * poses[:, 0] + c * poses[:, 1] + translation[1],
+                                            poses[:, 2] + translation[2], _wrap(poses[:, 3] + yaw)], axis=1)
+        self._grid_codes.data[moved] = grid_codes
+        self._direction_codes.data[moved] = direction_codes
+        self._components.data[moved] = into
+        if self.component == component:
+            self.component = into
+        return moved
+
+    def fuse(self, duplicates: dict[int, int]) -> np.ndarray:
+        """Remove experiences that duplicate others (``duplicate: kept``; a kept one is no duplicate itself).
+
+        A duplicate's links are moved to the one it duplicates (links that would join an experience to
+        itself are dropped), the robot's pose is kept if it was at a duplicate, ids close up, and a
+        least-squares solve is started (the moved links hold the small offsets between the two).
+        Returns the new id of every old experience, (N,).
+        """
+        n = self.size
+        replacement = np.arange(n)
+        for duplicate, kept in duplicates.items():
+            replacement[duplicate] = kept
+        if np.any(np.isin(replacement[list(duplicates.values())], list(duplicates))):
+            raise ValueError("a kept experience is itself a duplicate")
+        keep = np.ones(n, dtype=bool)
+        keep[list(duplicates)] = False
+        remap = (np.cumsum(keep) - 1)[replacement]
+        if self.current >= 0:
+            robot = self.robot_pose()
+            self.relative = self._compose(self._invert(self.poses[replacement[self.current]]), robot)
+            self.current = int(remap[self.current])
+        links = remap[self.links]
+        joined = links[:, 0] != links[:, 1]
+        for name, (attribute, columns, dtype) in _STATE_ARRAYS.items():
+            rows = getattr(self, attribute).view
+            if name in ("links", "link_poses", "link_times"):
+                rows = (links if name == "links" else rows)[joined]
+            elif name != "degree":
+                rows = rows[keep]
+            else:
+                rows = np.zeros(int(keep.sum()), dtype=np.int64)
+            setattr(self, attribute, _Growing.of(rows, columns, dtype))
+        kept_links = self.links
+        self._degree = _Growing.of(np.bincount(kept_links.ravel(), minlength=self.size), 0, np.int64)
+        self._linked = {(int(a), int(b)) for a, b in kept_links}
+        self._by_template = {}
+        for experience, template in enumerate(self.template_ids):
+            self._by_template.setdefault(int(template), []).append(experience)
+        self._settled = False
+        return remap
+
+    def absorb(self, other: ExperienceMap, template_offset: int, component_offset: int) -> None:
+        """Append another map's experiences and links (a second loaded map) as components and sessions of
+        their own: view ids shifted by ``template_offset``, component ids by ``component_offset``; the
+        robot's place is unchanged."""
+        experience_offset = self.size
+        session_offset = int(self.sessions.max()) + 1 if self.size else 0
+        for name, (attribute, _, _) in _STATE_ARRAYS.items():
+            rows = getattr(other, attribute).view
+            rows = {"template_ids": rows + template_offset, "links": rows + experience_offset,
+                    "components": rows + component_offset, "sessions": rows + session_offset}.get(name, rows)
+            getattr(self, attribute).extend(rows)
+        for source, target in other.links + experience_offset:
+            self._linked.add((int(source), int(target)))
+        for experience in range(experience_offset, self.size):
+            self._by_template.setdefault(int(self.template_ids[experience]), []).append(experience)
+        self.session = max(self.session, int(self.sessions.max()) if self.size else 0)
 
     def robot_pose(self) -> np.ndarray:
         """The robot's pose in the map: the current experience composed with the odometry since it."""
@@ -266,11 +386,14 @@ class ExperienceMap:
         return np.asarray(self._by_template.get(int(template_id), ()), dtype=np.int64)
 
     def _candidates(self, template_id: int) -> np.ndarray:
-        """Experiences that can score under the threshold: when a different view alone costs more than the
-        threshold, only the experiences of this view (an exact shortcut, not an approximation)."""
+        """Experiences that can score under the threshold: those of the robot's component (the map it is
+        in); when a different view alone costs more than the threshold, only those of this view (an exact
+        shortcut, not an approximation)."""
         if self.config.view_weight > self.config.threshold:
-            return self.experiences_of(template_id)
-        return np.arange(self.size)
+            candidates = self.experiences_of(template_id)
+        else:
+            candidates = np.arange(self.size)
+        return candidates[self.components[candidates] == self.component]
 
     def update(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float, *,
                may_close_loop: bool = True) -> MapUpdate:
@@ -335,6 +458,8 @@ class ExperienceMap:
         self._by_template.setdefault(int(template_id), []).append(self.size - 1)
         self._times.append(time)
         self._degree.append(0)
+        self._components.append(self.component)
+        self._sessions.append(self.session)
         self.current = self.size - 1
 
     def _link(self, source: int, target: int, time: float) -> None:
@@ -344,7 +469,8 @@ class ExperienceMap:
         heading = math.atan2(dy, dx) if distance > 0 else 0.0
         self._links.append((source, target))
         self._link_poses.append((distance, heading, float(_wrap(dyaw)), dz))
-        self._link_times.append(time - self.creation_times[source])
+        # seconds on the session's clock; a link from an experience of an earlier session records 0
+        self._link_times.append(time - self.creation_times[source] if self.sessions[source] == self.session else 0.0)
         self._degree.data[source] += 1
         self._degree.data[target] += 1
         self._linked.add((source, target))
@@ -371,14 +497,21 @@ class ExperienceMap:
             r_z = z_source + height − z_target,   r_yaw = wrap(yaw_source + facing − yaw_target),
 
         linearised (including the dependence of r_xy on the source's yaw), and the normal equations
-        solved by a sparse LU, the first experience held fixed. A frame runs at most
+        solved by a sparse LU, the first experience held fixed; only the robot's component is solved (the
+        others are separate maps, each held by its own first experience). A frame runs at most
         ``LEAST_SQUARES_ITERATIONS`` iterations; a solve that has not converged (no experience moving more
         than 1 mm) goes on at the next frame, so no frame waits for a long solve.
         """
-        n, count = self.size, self._links.count
-        sources, targets = self.links[:, 0], self.links[:, 1]
-        distance, heading, facing, height = self.link_poses.T
-        poses = self._poses.data[:n]
+        # the robot's component only (other components are separate maps, each with its own first experience)
+        members = np.flatnonzero(self.components == self.component)
+        n = len(members)
+        local = np.full(self.size, -1)
+        local[members] = np.arange(n)
+        inside = local[self.links[:, 0]] >= 0
+        sources, targets = local[self.links[inside, 0]], local[self.links[inside, 1]]
+        distance, heading, facing, height = self.link_poses[inside].T
+        count = len(sources)
+        poses = self._poses.data[members]
         rows = np.arange(count)
         ones = np.ones(count)
         for _ in range(LEAST_SQUARES_ITERATIONS):
@@ -402,6 +535,7 @@ class ExperienceMap:
             step = factor.solve(-(jacobian.T @ residual)).reshape(n - 1, 4)
             poses[1:] += step
             poses[:, 3] = _wrap(poses[:, 3])
+            self._poses.data[members] = poses
             if len(step) == 0 or np.abs(step).max() < LEAST_SQUARES_SETTLED:
                 self._settled = True
                 return

@@ -56,6 +56,7 @@ class Estimate:
         new_experience, new_template: created this frame.
         self_motion: the self-motion used for this frame.
         grid_cell: decoded 3D grid-cell packet, fractional cells. head_direction_cell: (yaw, height) cells.
+        merged: this frame merged the robot's map into another (a loaded map it recognised).
     """
 
     timestamp: float
@@ -68,6 +69,7 @@ class Estimate:
     self_motion: SelfMotion
     grid_cell: np.ndarray
     head_direction_cell: np.ndarray
+    merged: bool = False
 
 
 class NeuroSLAM:
@@ -98,6 +100,7 @@ class NeuroSLAM:
         self._view_grid = np.zeros((64, 3))
         self._view_direction = np.zeros((64, 2))
         self._view_decay = np.zeros((64, 2))  # (decay, time of last activation)
+        self._view_component = np.zeros(64, dtype=np.int64)  # the map (component) each view was learned in
         self._image_shape: tuple[int, ...] | None = None
         self._last_time: float | None = None
         self._odometry_pose = np.zeros(4)
@@ -109,6 +112,8 @@ class NeuroSLAM:
         self._frame_offsets = _Growing(4, np.float64)
         self.frames = 0
         self.last: Estimate | None = None
+        self.merges: list[tuple[int, int]] = []  # this session's merges: (frame index, experience merged at)
+        self._known_start = False  # the next frame should find the robot in the loaded map (begin_session)
         self.map_extra: dict[str, np.ndarray] = {}  # the caller's arrays kept with a loaded map (see save)
         self.map_metadata: dict = {}  # the notes kept with a loaded map
 
@@ -165,6 +170,9 @@ class NeuroSLAM:
         distance, yaw_change, climb = motion.forward_speed * dt, motion.yaw_rate * dt, motion.climb_rate * dt
 
         view = self.local_view.observe(self.local_view.thumbnail(image_grey))
+        if self._known_start:
+            self._known_start = False
+            self._start_in_map(view)
 
         self.head_direction.step(yaw_change, climb)
         direction_code = self.head_direction.decode()
@@ -172,9 +180,10 @@ class NeuroSLAM:
         self.grid_cells.step((distance * math.cos(heading), distance * math.sin(heading), climb))
         grid_code = self.grid_cells.decode()
 
+        themap = self.experience_map
         if view.new:
             self._learn_view(view.template_id, grid_code, direction_code, float(timestamp))
-        else:  # the injection moves the packets: read them out again
+        elif self._view_component[view.template_id] == themap.component:  # the injection moves the packets
             self._recall_view(view.template_id, view.relative_yaw, float(timestamp))
             grid_code = self.grid_cells.decode()
             direction_code = self.head_direction.decode()
@@ -182,35 +191,41 @@ class NeuroSLAM:
         middle = yaw + yaw_change / 2
         self._odometry_pose = np.array([x + distance * math.cos(middle), y + distance * math.sin(middle), z + climb,
                                         math.atan2(math.sin(yaw + yaw_change), math.cos(yaw + yaw_change))])
-        may_close_loop = True
+        themap.integrate(distance, yaw_change, climb)  # the robot's pose in the map includes this frame's motion
+        may_close_loop, merged = True, False
         self._since_closure += distance
-        if self.config.experience_map.loop_closure == "confirmed":
-            spacing = self.config.experience_map.confirmation_spacing
-            # the newest entry is the latest frame; it stays once it lies ``spacing`` beyond the one before
-            if (len(self._recent) < 2 or spacing == 0
-                    or np.linalg.norm(self._recent[-1][0][:3] - self._recent[-2][0][:3]) >= spacing):
-                self._recent.append((self._odometry_pose, view.template_id))
-            else:
-                self._recent[-1] = (self._odometry_pose, view.template_id)
+        spacing = self.config.experience_map.confirmation_spacing
+        # the newest entry is the latest frame; it stays once it lies ``spacing`` beyond the one before
+        if (len(self._recent) < 2 or spacing == 0
+                or np.linalg.norm(self._recent[-1][0][:3] - self._recent[-2][0][:3]) >= spacing):
+            self._recent.append((self._odometry_pose, view.template_id))
+        else:
+            self._recent[-1] = (self._odometry_pose, view.template_id)
+        if not view.new:
+            place = self._merge_place(view.template_id, view.relative_yaw)
+            if place >= 0:
+                grid_code, direction_code = self._merge(place, view.relative_yaw, grid_code, direction_code)
+                merged = True
+        if self.config.experience_map.loop_closure == "confirmed" and not merged:
             place = -1 if view.new else self._confirmed_place(view.relative_yaw, float(timestamp))
             may_close_loop = place >= 0
             if may_close_loop:
                 grid_code, direction_code = self._relocate(place, view.relative_yaw, grid_code, direction_code)
 
-        self.experience_map.integrate(distance, yaw_change, climb)
-        update = self.experience_map.update(view.template_id, grid_code, direction_code, float(timestamp),
-                                            may_close_loop=may_close_loop)
-        if update.loop_closure or (not update.new_experience and self.experience_map.creation_times[
-                update.experience_id] < timestamp - self.config.experience_map.confirmation_age):
+        update = themap.update(view.template_id, grid_code, direction_code, float(timestamp),
+                               may_close_loop=may_close_loop)
+        if update.loop_closure or (not update.new_experience and self._old(float(timestamp))[update.experience_id]):
             self._since_closure = 0.0  # on an old experience: localised in the map
         self._frame_experiences.append(update.experience_id)
         self._frame_offsets.append(self.experience_map.relative)
         self._image_shape = array.shape
         self._last_time = float(timestamp)
+        if merged:
+            self.merges.append((self.frames, update.experience_id))
         self.frames += 1
-        self.last = Estimate(float(timestamp), self.experience_map.robot_pose(), update.experience_id,
+        self.last = Estimate(float(timestamp), themap.robot_pose(), update.experience_id,
                              view.template_id, update.loop_closure, update.new_experience, view.new, motion,
-                             grid_code, direction_code)
+                             grid_code, direction_code, merged)
         if update.loop_closure:
             logger.debug("frame %d: loop closed at experience %d", self.frames, update.experience_id)
         return self.last
@@ -250,6 +265,9 @@ class NeuroSLAM:
             "slam.view_grid": self._view_grid[:templates].copy(),
             "slam.view_direction": self._view_direction[:templates].copy(),
             "slam.view_decay": self._view_decay[:templates].copy(),
+            "slam.view_component": self._view_component[:templates].copy(),
+            "slam.merges": np.array(self.merges, dtype=np.int64).reshape(-1, 2),
+            "slam.known_start": np.bool_(self._known_start),
             "slam.image_shape": np.array(self._image_shape or (), dtype=np.int64),
             "slam.last_time": np.float64(math.nan if self._last_time is None else self._last_time),
             "slam.odometry_pose": self._odometry_pose.copy(),
@@ -302,6 +320,13 @@ class NeuroSLAM:
             self._view_grid, self._view_direction, self._view_decay = (
                 np.concatenate([array, np.zeros((capacity - templates, array.shape[1]))])
                 for array in (view_grid, view_direction, view_decay))
+            view_component = np.asarray(state["slam.view_component"], dtype=np.int64)
+            if view_component.shape != (templates,):
+                raise ValueError(f"the view components do not match the {templates} templates")
+            self._view_component = np.concatenate([view_component, np.zeros(capacity - templates, dtype=np.int64)])
+            self.merges = [(int(frame), int(experience)) for frame, experience in
+                           np.asarray(state["slam.merges"], dtype=np.int64).reshape(-1, 2)]
+            self._known_start = bool(state["slam.known_start"])
             shape = tuple(int(n) for n in state["slam.image_shape"])
             self._image_shape = shape or None
             last_time = float(state["slam.last_time"])
@@ -388,13 +413,251 @@ class NeuroSLAM:
         """
         config = self.config.experience_map
         themap = self.experience_map
+        eligible = self._old(time) & (themap.components == themap.component)
         return confirm_place(
             np.array([pose for pose, _ in self._recent]), np.array([template for _, template in self._recent]),
-            relative_yaw, themap.poses, themap.experiences_of, themap.creation_times < time - config.confirmation_age,
-            themap.robot_pose(), radius=config.confirmation_tolerance + config.confirmation_drift * self._since_closure,
+            relative_yaw, themap.poses, themap.experiences_of, eligible, themap.robot_pose(),
+            radius=config.confirmation_tolerance + config.confirmation_drift * self._since_closure,
             height_radius=config.confirmation_tolerance + config.confirmation_climb_error * self._since_closure,
             tolerance=config.confirmation_tolerance, matches=config.confirmation_matches,
             climb_error=config.confirmation_climb_error)
+
+    def _old(self, time: float) -> np.ndarray:
+        """(N,) experiences made more than ``confirmation_age`` ago, or in an earlier session."""
+        themap = self.experience_map
+        return ((themap.creation_times < time - self.config.experience_map.confirmation_age)
+                | (themap.sessions < themap.session))
+
+    # sessions and merging ----------------------------------------------------------------------------------
+    def begin_session(self, start: str = "unknown") -> None:
+        """Start a new session (a new drive) in the map this SLAM holds (a loaded one).
+
+        The clock, the visual odometry, the odometry pose, the confirmation window and the per-frame
+        trajectory start afresh; the map, the templates and the cells' associations stay.
+
+        Args:
+            start: ``"unknown"`` (scenario ii of the multisession paper): the session builds a partial map
+                of its own, which merges into the loaded map once the last frames confirm a place of it
+                (the same confirmation as a loop closure, :func:`~neuroslam.loop_closure.confirm_place`,
+                without a search radius). ``"known"`` (scenario i): the robot starts inside the map; the
+                first frame's view, if it matches a stored template, places the robot at that template's
+                (latest) experience and resets both packets to its codes, and mapping continues there. If
+                the first view matches nothing, the session goes on as an unknown start.
+        """
+        if start not in ("unknown", "known"):
+            raise InvalidParameterError("start", start, "must be 'unknown' or 'known'")
+        c = self.config
+        self.visual_odometry = VisualOdometry(c.odometry, horizontal_fov=c.horizontal_fov, vertical_fov=c.vertical_fov,
+                                              panoramic=c.panoramic)
+        self._image_shape = None
+        self._last_time = None
+        self._odometry_pose = np.zeros(4)
+        self._recent.clear()
+        self._since_closure = 0.0
+        self._view_decay[:] = 0.0
+        self._frame_experiences = _Growing(0, np.int64)
+        self._frame_offsets = _Growing(4, np.float64)
+        self.frames = 0
+        self.last = None
+        self.merges = []
+        self.experience_map.begin_session()
+        self._known_start = start == "known"
+        logger.info("session %d begins (%s start) with %d templates, %d experiences in %d maps",
+                    self.experience_map.session, start, self.local_view.count, self.experience_map.size,
+                    len(np.unique(self.experience_map.components)))
+
+    def add_map(self, other: NeuroSLAM) -> None:
+        """Hold another saved map as well (its own component, merged only when recognised).
+
+        Its templates, view associations, experiences and links are appended (ids shifted); it must have
+        been built with the same configuration. Call :meth:`begin_session` afterwards.
+        """
+        if other.config != self.config:
+            raise InvalidInputError("map", "with another configuration", "must share this SLAM's configuration")
+        themap = self.experience_map
+        count = self.local_view.count
+        component_offset = 1 + max(int(themap.components.max()) if themap.size else 0,
+                                   int(self._view_component[:count].max()) if count else 0, themap.component)
+        first = self.local_view.extend(other.local_view)
+        added = other.local_view.count
+        capacity = max(64, 2 * (first + added))
+        for name in ("_view_grid", "_view_direction", "_view_decay", "_view_component"):
+            mine, theirs = getattr(self, name), getattr(other, name)
+            grown = np.zeros((capacity, *mine.shape[1:]), dtype=mine.dtype)
+            grown[:first] = mine[:first]
+            grown[first: first + added] = theirs[:added]
+            setattr(self, name, grown)
+        self._view_component[first: first + added] += component_offset
+        themap.absorb(other.experience_map, template_offset=first, component_offset=component_offset)
+
+    def _start_in_map(self, view) -> None:
+        """Scenario i: put the robot at the latest experience of the first frame's view, packets reset there."""
+        themap = self.experience_map
+        experiences = themap.experiences_of(view.template_id) if not view.new else np.zeros(0, dtype=np.int64)
+        if len(experiences) == 0:
+            logger.warning("known start: the first view matches no stored template; mapping as an unknown start")
+            return
+        place = int(experiences[-1])
+        themap.enter(place, np.array([0.0, 0.0, 0.0, view.relative_yaw]))
+        direction = themap.direction_codes[place].copy()
+        direction[0] += view.relative_yaw / self.head_direction.yaw_cell_size
+        self.grid_cells.network.reset(themap.grid_codes[place])
+        self.head_direction.network.reset(direction)
+        logger.info("known start: at experience %d (view %d)", place, view.template_id)
+
+    def _merge_place(self, template: int, relative_yaw: float) -> int:
+        """An experience of another map (component) that the last frames confirm the robot is at, or -1.
+
+        :func:`~neuroslam.loop_closure.confirm_place` over each other component that holds the current
+        view, with no search radius (where the robot is in that map is unknown): every window frame's view
+        must lie where the hypothesis puts it, and views seen at several places of that map are no
+        evidence. Two components both confirmed: nothing (ambiguous).
+        """
+        themap = self.experience_map
+        experiences = themap.experiences_of(template)
+        others = np.unique(themap.components[experiences])
+        others = others[others != themap.component]
+        if len(others) == 0 or len(self._recent) < self.config.experience_map.confirmation_matches:
+            return -1
+        config = self.config.experience_map
+        poses = np.array([pose for pose, _ in self._recent])
+        templates = np.array([template for _, template in self._recent])
+        found = []
+        for component in others:
+            place = confirm_place(poses, templates, relative_yaw, themap.poses, themap.experiences_of,
+                                  themap.components == component, themap.robot_pose(), radius=math.inf,
+                                  height_radius=math.inf, tolerance=config.confirmation_tolerance,
+                                  matches=config.confirmation_matches, climb_error=config.confirmation_climb_error)
+            if place >= 0:
+                found.append(place)
+        return found[0] if len(found) == 1 else -1
+
+    def _merge(self, place: int, relative_yaw: float, grid_code: np.ndarray, direction_code: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+        """Merge the robot's map (component) and the map of ``place`` (multisession paper, section 3).
+
+        The younger of the two (the higher component id: the partial map of this session, or the later
+        of two loaded maps) moves into the older one's frame, which stays. The correspondence: the robot,
+        in its map, is at ``place`` facing its yaw plus the view's ``relative_yaw``. The 4-DoF transform
+        (a rotation about z by the yaw difference, then a translation; eqs. 13–14 with the yaw) maps the
+        moving side of it onto the staying side. Every experience of the moving map is moved by it (eq. 15)
+        and given the codes its new pose has relative to the correspondence (grid cells: the metric
+        offset over the cell sizes, wrapped; head direction: the yaw and height offsets); every view
+        learned in the moving map has its associations moved the same way (eqs. 11–12: the offset to its
+        first experience rotated by the yaw difference, not only translated). When the robot's map moved,
+        both packets move to ``place``'s codes (an exact shift); otherwise they stay. Experiences of the
+        moving map that duplicate one of the other (same view, within ``confirmation_tolerance``) are
+        fused into it. The loop closure that follows in the same frame links the two maps (eqs. 16–17).
+        Returns the decoded codes afterwards.
+        """
+        themap = self.experience_map
+        mine, theirs = themap.component, int(themap.components[place])
+        robot = themap.robot_pose()
+        at_place = themap.poses[place].copy()
+        at_place[3] += relative_yaw
+        place_direction = themap.direction_codes[place] + [relative_yaw / self.head_direction.yaw_cell_size, 0.0]
+        robot_moves = mine > theirs
+        moving, staying = (mine, theirs) if robot_moves else (theirs, mine)
+        # the correspondence on each side: (pose, grid code, head-direction code)
+        before, after = (robot, grid_code, direction_code), (at_place, themap.grid_codes[place], place_direction)
+        if not robot_moves:
+            before, after = after, before
+        yaw = float(math.remainder(after[0][3] - before[0][3], 2 * math.pi))
+        c, s = math.cos(yaw), math.sin(yaw)
+        translation = np.array([after[0][0] - (c * before[0][0] - s * before[0][1]),
+                                after[0][1] - (s * before[0][0] + c * before[0][1]), after[0][2] - before[0][2]])
+        moved = np.flatnonzero(themap.components == moving)
+        grid_codes, direction_codes = self._codes_after(themap.poses[moved], yaw, translation, after)
+        # the views learned in the moving map: associations relative to their first experience, rotated
+        count = self.local_view.count
+        views = np.flatnonzero(self._view_component[:count] == moving)
+        if len(views):
+            first = {}
+            for experience, template in zip(moved[::-1], themap.template_ids[moved][::-1], strict=True):
+                first[int(template)] = int(experience)  # iterating backwards leaves the first
+            index = {int(e): k for k, e in enumerate(moved)}
+            old_grid = np.array([themap.grid_codes[first[v]] if v in first else before[1] for v in views])
+            old_direction = np.array([themap.direction_codes[first[v]] if v in first else before[2] for v in views])
+            new_grid = np.array([grid_codes[index[first[v]]] if v in first else after[1] for v in views])
+            new_direction = np.array([direction_codes[index[first[v]]] if v in first else after[2] for v in views])
+            grid_size = np.asarray(self.config.grid_cells.size, dtype=float)
+            direction_size = np.asarray(self.config.head_direction.size, dtype=float)
+            cell = np.asarray(self.config.grid_cells.cell_size, dtype=float)
+            offset = ((self._view_grid[views] - old_grid + grid_size / 2) % grid_size - grid_size / 2) * cell
+            rotated = np.stack([c * offset[:, 0] - s * offset[:, 1], s * offset[:, 0] + c * offset[:, 1],
+                                offset[:, 2]], axis=1) / cell
+            turn = (self._view_direction[views] - old_direction + direction_size / 2) % direction_size \
+                - direction_size / 2
+            self._view_grid[views] = (new_grid + rotated) % grid_size
+            self._view_direction[views] = (new_direction + turn) % direction_size
+            self._view_component[views] = staying
+        themap.move_component(moving, staying, yaw, translation, grid_codes, direction_codes)
+        place = self._fuse_duplicates(moved, place)
+        self._since_closure = 0.0
+        logger.info("merged map %d (%d experiences, %d views) into map %d at experience %d: yaw %.1f deg, "
+                    "shift (%.2f, %.2f, %.2f) m", moving, len(moved), len(views), staying, place, math.degrees(yaw),
+                    *translation)
+        if robot_moves:
+            return self._relocate(place, relative_yaw, grid_code, direction_code)
+        return grid_code, direction_code
+
+    def _fuse_duplicates(self, moved: np.ndarray, place: int) -> int:
+        """After a merge: each moved experience with the same view as an experience of the map it joined,
+        within ``confirmation_tolerance`` of it (the frames driven while the merge was being confirmed),
+        is fused with it (:meth:`ExperienceMap.fuse`; the older of the two stays), so the shared part is
+        mapped once. The frames anchored at a fused experience keep their poses. Returns ``place``'s new id."""
+        themap = self.experience_map
+        tolerance = self.config.experience_map.confirmation_tolerance
+        is_moved = np.zeros(themap.size, dtype=bool)
+        is_moved[moved] = True
+        duplicates = {}
+        for experience in moved:
+            others = themap.experiences_of(int(themap.template_ids[experience]))
+            others = others[~is_moved[others]]
+            if len(others) == 0:
+                continue
+            gaps = np.linalg.norm(themap.poses[others, :2] - themap.poses[experience, :2], axis=1)
+            heights = np.abs(themap.poses[others, 2] - themap.poses[experience, 2])
+            gaps[heights > tolerance] = np.inf
+            if gaps.min() <= tolerance:
+                twin = int(others[np.argmin(gaps)])
+                older, newer = min(twin, int(experience)), max(twin, int(experience))
+                if older not in duplicates and newer not in duplicates.values():
+                    duplicates[newer] = older  # the older experience stays
+        if not duplicates:
+            return place
+        frames = self._frame_experiences.view
+        trajectory = self.trajectory()
+        remap = themap.fuse(duplicates)
+        fused = np.isin(frames, list(duplicates))
+        self._frame_experiences = _Growing.of(remap[frames], 0, np.int64)
+        if fused.any():  # re-express those frames relative to the experience they now belong to
+            anchors = themap.poses[remap[frames[fused]]]
+            offsets = np.array([themap._compose(themap._invert(anchor), pose)
+                                for anchor, pose in zip(anchors, trajectory[fused], strict=True)])
+            self._frame_offsets.data[np.flatnonzero(fused)] = offsets
+        self.merges = [(frame, int(remap[experience])) for frame, experience in self.merges]
+        logger.info("fused %d experiences of the merged map into the ones they duplicate", len(duplicates))
+        return int(remap[place])
+
+    def _codes_after(self, poses: np.ndarray, yaw: float, translation: np.ndarray,
+                     anchor: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """Grid and head-direction codes of experiences at ``poses`` moved by (``yaw``, ``translation``), from
+        their metric offsets to ``anchor`` = (pose, grid code, head-direction code), wrapped."""
+        c, s = math.cos(yaw), math.sin(yaw)
+        moved = np.stack([c * poses[:, 0] - s * poses[:, 1] + translation[0],
+                          s * poses[:, 0] + c * poses[:, 1] + translation[1], poses[:, 2] + translation[2],
+                          poses[:, 3] + yaw], axis=1)
+        pose, grid_code, direction_code = anchor
+        grid_size = np.asarray(self.config.grid_cells.size, dtype=float)
+        direction_size = np.asarray(self.config.head_direction.size, dtype=float)
+        cell = np.asarray(self.config.grid_cells.cell_size, dtype=float)
+        height_cell = self.config.head_direction.height_cell_size
+        grid = (grid_code + (moved[:, :3] - pose[:3]) / cell) % grid_size
+        turn = np.remainder(moved[:, 3] - pose[3] + math.pi, 2 * math.pi) - math.pi
+        direction = np.stack([direction_code[0] + turn / self.head_direction.yaw_cell_size,
+                              direction_code[1] + (moved[:, 2] - pose[2]) / height_cell], axis=1)
+        return grid, direction % direction_size
 
     def _relocate(self, place: int, relative_yaw: float, grid_code: np.ndarray, direction_code: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray]:
@@ -426,6 +689,8 @@ class NeuroSLAM:
             self._view_grid = np.concatenate([self._view_grid, np.zeros_like(self._view_grid)])
             self._view_direction = np.concatenate([self._view_direction, np.zeros_like(self._view_direction)])
             self._view_decay = np.concatenate([self._view_decay, np.zeros_like(self._view_decay)])
+            self._view_component = np.concatenate([self._view_component, np.zeros_like(self._view_component)])
+        self._view_component[template] = self.experience_map.component
         self._view_grid[template] = grid_code
         self._view_direction[template] = direction_code
         self._view_decay[template] = (1.0, time)

@@ -115,6 +115,16 @@ class LocalViewCells:
         self._descriptors[:count] = descriptors
         self.count = count
 
+    def extend(self, other: LocalViewCells) -> int:
+        """Append another set's templates (another session's map); returns the first new template's id."""
+        if other._templates.shape[1:] != self._templates.shape[1:]:
+            raise ValueError(f"thumbnails of {other._templates.shape[1:]} do not match {self._templates.shape[1:]}")
+        first = self.count
+        state = self.state_dict()
+        extra = other.state_dict()
+        self.load_state_dict({key: np.concatenate([state[key], extra[key]]) for key in state})
+        return first
+
     def thumbnail(self, grey_image: np.ndarray) -> np.ndarray:
         """The patch-normalised thumbnail of a grey image (crop, area resize, eq. 26)."""
         region = crop(grey_image, self.config.region)

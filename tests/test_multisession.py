@@ -1,0 +1,155 @@
+"""Multisession mapping on synthetic views with exact odometry, where every expected pose is known by hand:
+a session that starts somewhere unknown merges into the loaded map once (and only once it is confirmed),
+in 4 DoF; unrelated or scrambled views never merge; a known start continues in the map; chains merge."""
+
+import math
+
+import numpy as np
+import pytest
+from test_maps import SQUARE_CONFIG
+from test_slam import image
+
+from neuroslam import InvalidInputError, InvalidParameterError, NeuroSLAM, SelfMotion
+from neuroslam.cells.attractor import wrapped_distance
+
+VIEWS = {k: image(100 + k) for k in range(40)}  # the square of the first session
+VIEWS.update({200 + k: image(300 + k) for k in range(40)})  # places the first session never saw
+
+
+def drive(slam, steps, t=0.0):
+    """Feed ``steps`` = [(view, metres forward, turn in rad)], one frame each, 0.1 s apart."""
+    estimates = []
+    for view, forward, turn in steps:
+        t += 0.1
+        estimates.append(slam.step(VIEWS[view], t, odometry=SelfMotion(forward / 0.1, turn / 0.1)))
+    return estimates, t
+
+
+def square(views=range(40)):
+    """The 40-view square (1 m a frame, turning in place at every tenth view)."""
+    return [(k, 0.0 if k % 10 == 9 else 1.0, math.pi / 2 if k % 10 == 9 else 0.0) for k in views]
+
+
+def first_session(tmp_path, views=range(40), name="first.npz"):
+    slam = NeuroSLAM(SQUARE_CONFIG)
+    drive(slam, square(views))
+    return slam.save(tmp_path / name)
+
+
+# the second session's approach: 10 m along its own x, a left turn on the spot, 9 m along its own y, and then
+# view 0, the first session's start (which faces +x there): in the first session's frame the approach comes
+# from (-10, 9) down to (-10, 0) and then east to (-1, 0): a -90 degree rotation plus a shift
+APPROACH = [(200 + k, 0.0 if k == 0 else 1.0, 0.0) for k in range(10)] + [(210, 0.0, math.pi / 2)] + [
+    (211 + k, 1.0, 0.0) for k in range(9)]
+APPROACH_IN_FIRST_FRAME = np.array([(-10, 9 - k) for k in range(10)] + [(-10, 0)] + [(k - 9, 0) for k in range(9)],
+                                   dtype=float)
+
+
+def test_an_unknown_start_merges_once_confirmed_in_four_degrees_of_freedom(tmp_path):
+    slam = NeuroSLAM.load(first_session(tmp_path))
+    slam.begin_session()
+    estimates, _ = drive(slam, [*APPROACH, (0, 1.0, 0.0), *square(range(1, 40))])
+    themap = slam.experience_map
+    merged = [index for index, estimate in enumerate(estimates) if estimate.merged]
+    # confirmed, not on the first shared view: 7 of the last 10 frames (the test preset) must agree
+    assert len(merged) == 1 and len(slam.merges) == 1
+    assert len(APPROACH) + 6 <= merged[0] <= len(APPROACH) + 9
+    # one connected map; the shared part mapped once: only the approach's 20 views and places were added
+    assert set(themap.components) == {0}
+    assert slam.local_view.count == 60 and themap.size == 60
+    # the approach, moved into the first session's frame: rotated by -90 degrees and shifted
+    approach = np.flatnonzero(themap.sessions == 1)
+    np.testing.assert_allclose(themap.poses[approach, :2], APPROACH_IN_FIRST_FRAME, atol=0.05)
+    np.testing.assert_allclose(np.abs(themap.poses[approach[:10], 3] + math.pi / 2), 0, atol=0.02)
+    # every frame of this session in the merged map: on the square after the merge, on the approach before
+    trajectory = slam.trajectory()
+    np.testing.assert_allclose(trajectory[: len(APPROACH), :2], APPROACH_IN_FIRST_FRAME, atol=0.05)
+    np.testing.assert_allclose(trajectory[len(APPROACH):, :2], themap.poses[:40, :2], atol=0.05)
+    # the moved experiences carry codes consistent with the map they joined: the code offset between an
+    # approach experience and the first session's start is their metric offset (2 m cells in x and y)
+    size = np.asarray(slam.config.grid_cells.size, dtype=float)
+    cell = np.asarray(slam.config.grid_cells.cell_size, dtype=float)
+    expected = (themap.grid_codes[0] + (themap.poses[approach, :3] - themap.poses[0, :3]) / cell) % size
+    assert wrapped_distance(themap.grid_codes[approach], expected, tuple(size)).max() < 0.05
+    # the views learned on the approach moved with their experiences: recalling one injects where it is mapped
+    views = themap.template_ids[approach]
+    assert wrapped_distance(slam._view_grid[views], themap.grid_codes[approach], tuple(size)).max() < 0.3
+    assert wrapped_distance(slam._view_direction[views], themap.direction_codes[approach],
+                            slam.config.head_direction.size).max() < 0.3
+
+
+def test_the_merged_map_saves_and_continues_exactly(tmp_path):
+    slam = NeuroSLAM.load(first_session(tmp_path))
+    slam.begin_session()
+    drive(slam, [*APPROACH, (0, 1.0, 0.0), *square(range(1, 20))])
+    again = NeuroSLAM.load(slam.save(tmp_path / "merged.npz"))
+    rest = square(range(20, 40))
+    expected, _ = drive(slam, rest, t=5.0)
+    continued, _ = drive(again, rest, t=5.0)
+    for a, b in zip(expected, continued, strict=True):
+        np.testing.assert_array_equal(a.pose, b.pose)
+    assert again.merges == slam.merges
+
+
+def test_unrelated_places_never_merge(tmp_path):
+    slam = NeuroSLAM.load(first_session(tmp_path))
+    slam.begin_session()
+    estimates, _ = drive(slam, [(200 + k, 1.0, 0.0) for k in range(40)])
+    assert not any(estimate.merged for estimate in estimates)
+    assert set(slam.experience_map.components) == {0, 1} and slam.experience_map.size == 80
+
+
+def test_familiar_views_in_the_wrong_arrangement_never_merge(tmp_path):
+    """The first session's views, but in an order whose geometry contradicts its map (look-alike places):
+    each view matches a stored template, so a single-frame rule would merge; the confirmation never does."""
+    slam = NeuroSLAM.load(first_session(tmp_path))
+    slam.begin_session()
+    scrambled = [3, 27, 12, 36, 8, 21, 33, 15, 1, 30, 18, 6, 24, 39, 10, 29, 4, 17, 35, 22]
+    estimates, _ = drive(slam, [(view, 1.0, 0.0) for view in scrambled])
+    assert not any(estimate.merged for estimate in estimates)
+    assert all(not estimate.new_template for estimate in estimates)  # every view was familiar
+    assert 1 in set(slam.experience_map.components)
+
+
+def test_a_known_start_continues_in_the_loaded_map(tmp_path):
+    slam = NeuroSLAM.load(first_session(tmp_path))
+    slam.begin_session(start="known")
+    estimates, _ = drive(slam, square(range(12, 40)))
+    # placed at view 12's experience from the first frame; the rest of the lap re-enters the map: nothing new
+    assert slam.experience_map.size == 40 and slam.local_view.count == 40
+    assert [estimate.experience_id for estimate in estimates] == list(range(12, 40))
+    np.testing.assert_allclose(slam.trajectory()[:, :2], slam.experience_map.poses[12:40, :2], atol=0.05)
+
+
+def test_a_known_start_whose_first_view_is_new_maps_as_an_unknown_start(tmp_path):
+    slam = NeuroSLAM.load(first_session(tmp_path))
+    slam.begin_session(start="known")
+    estimates, _ = drive(slam, [*APPROACH, (0, 1.0, 0.0), *square(range(1, 12))])
+    assert sum(estimate.merged for estimate in estimates) == 1
+
+
+def test_a_chain_of_three_sessions_ends_in_one_map(tmp_path):
+    """Two loaded maps that never met (the square's first and second halves, saved by separate sessions) and a
+    third session driving the whole square: it merges into one, then the other, and ends in one map."""
+    first_half = NeuroSLAM.load(first_session(tmp_path, range(0, 20), "a.npz"))
+    second_half = NeuroSLAM.load(first_session(tmp_path, range(20, 40), "b.npz"))
+    first_half.add_map(second_half)
+    themap = first_half.experience_map
+    assert themap.size == 40 and len(set(themap.components)) == 2
+    first_half.begin_session()
+    estimates, _ = drive(first_half, [*APPROACH, *square(range(40))])
+    assert sum(estimate.merged for estimate in estimates) == 2
+    assert len(set(themap.components)) == 1
+    assert themap.size == 60 and first_half.local_view.count == 60
+    # the second half's map, built with its own origin, now lies where the square's second half is
+    # (the first frame of a session has no motion: the square's views k = 0..8 lie at x = k, its corners at 8)
+    np.testing.assert_allclose(themap.poses[20, :2], [7, 9], atol=0.05)
+    np.testing.assert_allclose(themap.poses[30, :2], [-1, 8], atol=0.05)
+
+
+def test_session_arguments_are_checked(tmp_path):
+    slam = NeuroSLAM(SQUARE_CONFIG)
+    with pytest.raises(InvalidParameterError, match="start='elsewhere'"):
+        slam.begin_session(start="elsewhere")
+    with pytest.raises(InvalidInputError, match="configuration"):
+        slam.add_map(NeuroSLAM())  # built with the default configuration, not this one

@@ -6,6 +6,7 @@ Commands:
     record  save a simulated drive as such a folder
     calibrate  fit the visual-odometry gains to ground truth and write a config file
     worlds  list the built-in worlds with their levels and routes
+    compare-maps  the RMSE between two experience maps after ICP registration
 """
 
 from __future__ import annotations
@@ -54,10 +55,18 @@ def _drive_options(parser: argparse.ArgumentParser, *, laps: int, camera: bool) 
     parser.add_argument("--max-frames", type=_positive_int, help="stop after this many frames")
 
 
-def _slam_options(parser: argparse.ArgumentParser) -> None:
-    """Options choosing the NeuroSLAM parameters."""
-    parser.add_argument("--preset", default="sim", help="NeuroSLAM parameter preset (default: sim)")
+def _slam_options(parser: argparse.ArgumentParser, *, sessions: bool = False) -> None:
+    """Options choosing the NeuroSLAM parameters (and, for drive and run, maps of earlier sessions)."""
+    parser.add_argument("--preset", help="NeuroSLAM parameter preset (default: sim)")
     parser.add_argument("--config", type=Path, help="TOML or JSON file of NeuroSLAM settings over the preset")
+    if sessions:
+        parser.add_argument("--load-map", type=Path, action="append", default=[], metavar="MAP",
+                            help="a map of an earlier session (a map.npz, or a run's output folder); repeat for "
+                            "several. The session starts a map of its own and merges into a loaded one once it "
+                            "recognises a place of it over several frames; the loaded map's configuration is used")
+        parser.add_argument("--start", choices=["unknown", "known"], default="unknown",
+                            help="with --load-map: 'known' if the robot starts inside the loaded map (the first "
+                            "view places it there), 'unknown' if it may start anywhere (default: unknown)")
 
 
 def _record_option(parser: argparse.ArgumentParser) -> None:
@@ -100,7 +109,7 @@ def _parser() -> argparse.ArgumentParser:
     drive.add_argument("--camera-rate", type=_positive_float, default=10.0, help="frames per second (default: 10)")
     drive.add_argument("--panoramic", action="store_true", help="stitch four cameras into a 360-degree strip")
     drive.add_argument("--quality", choices=["fast", "high"], default="fast", help="visual profile (default: fast)")
-    _slam_options(drive)
+    _slam_options(drive, sessions=True)
     drive.add_argument("--odometry", choices=["visual", "wheel", "visual-inertial"], default="visual",
                        help="self-motion from the camera (visual odometry), from the wheel encoders with the "
                        "camera's height rate, or from the camera with the height rate from the IMU's gravity "
@@ -119,7 +128,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--rate", type=_positive_float, default=10.0,
                      help="frames per second when the ground truth gives no times (default: 10)")
     run.add_argument("--max-frames", type=_positive_int, help="use only the first N frames")
-    _slam_options(run)
+    _slam_options(run, sessions=True)
     run.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
     _record_option(run)
 
@@ -141,6 +150,18 @@ def _parser() -> argparse.ArgumentParser:
     _slam_options(calibrate)
     calibrate.add_argument("--out", type=Path, required=True, help="TOML file to write")
 
+    compare = commands.add_parser(
+        "compare-maps", help="the RMSE between two experience maps after 4-DoF ICP registration",
+        description="Register experience map A onto map B and report the RMSE between them. Protocol: A's centroid "
+        "on B's and the best of 36 headings (by median nearest-neighbour distance) as the initial alignment; "
+        "correspondences from every experience of A to its nearest of B (KD-tree); pairs farther than 3x the "
+        "median pair distance (and at least 0.5 m) are outliers, left out of the fit and the RMSE; the 4-DoF "
+        "transform (yaw, x, y, z; no scale) refitted until it settles. Each map: a map.npz, a run's output "
+        "folder, or an experiences.tum file.")
+    compare.add_argument("a", type=Path, help="map A (registered onto B)")
+    compare.add_argument("b", type=Path, help="map B (the reference)")
+    compare.add_argument("--json", action="store_true", help="print the result as JSON")
+
     commands.add_parser("worlds", help="list the built-in worlds with their levels and routes",
                         description="List the built-in worlds with their floor levels and routes.")
     return parser
@@ -157,7 +178,9 @@ def _drive(args: argparse.Namespace) -> int:
     from .vision.odometry import SelfMotion
     from .vision.preprocessing import grey
 
-    slam = _slam_from(args)
+    slam, book = _slam_from(args)
+    if args.load_map:
+        slam.begin_session(start=args.start)
     gravity = GravityPitch()
 
     world, route_name = _world_and_route(args)
@@ -168,7 +191,8 @@ def _drive(args: argparse.Namespace) -> int:
     out = args.out or Path("runs") / f"drive-{world.name.replace(':', '_')}-{time.strftime('%Y%m%d-%H%M%S')}"
     out.mkdir(parents=True, exist_ok=True)
     recorder = _recorder(args, out, f"{world.name}/{drive.route.name}")
-    times, truths, odometry, estimates, self_motion, closures, active = [], [], [], [], [], [], []
+    times, truths, odometry, estimates, self_motion, active = [], [], [], [], [], []
+    closures, merges = [], []  # (frame, true pose and level where the re-entered / merged-at experience was made)
     slam_seconds = 0.0
     previous_time = None
     started = time.perf_counter()
@@ -189,11 +213,11 @@ def _drive(args: argparse.Namespace) -> int:
             previous_time = frame.time
             times.append(frame.time)
             truths.append(frame.ground_truth)
+            book.add_frame(frame.time, frame.ground_truth.pose, frame.ground_truth.level)
             odometry.append(frame.odometry)
             estimates.append(estimate.pose)
             active.append((estimate.template_id, estimate.experience_id))
-            if estimate.loop_closure:
-                closures.append((len(times) - 1, estimate.experience_id))
+            _note_events(estimate, len(times) - 1, book, closures, merges)
             self_motion.append(slam.odometry_pose)
             if recorder is not None:
                 recorder.log_frame(frame.time, frame.image, slam, estimate, frame.ground_truth.pose)
@@ -212,15 +236,11 @@ def _drive(args: argparse.Namespace) -> int:
     experience_map = slam.experience_map
     frames = len(times)
     true_levels = np.array([t.level for t in truths])
-    closures = np.array(closures, dtype=int).reshape(-1, 2)
     scores = run_metrics(
         truth=np.array([t.pose for t in truths]), true_levels=true_levels, levels=np.array(world.levels),
-        estimate=estimates, odometry=self_motion, experience_positions=experience_map.poses[:, :3],
-        experience_frames=np.searchsorted(times, experience_map.creation_times),
-        closure_frames=closures[:, 0], closure_experiences=closures[:, 1], online_estimate=online,
-    )
-    truth_poses = np.array([t.pose for t in truths])
-    _save_map(slam, out, times, truth_poses, {"world": world.name, "route": drive.route.name})
+        estimate=estimates, odometry=self_motion, online_estimate=online,
+        **_event_arguments(slam, book, closures, merges if args.load_map else None))
+    _save_map(slam, out, book, {"world": world.name, "route": drive.route.name})
     summary = {
         "world": world.name,
         "route": drive.route.name,
@@ -280,16 +300,41 @@ def _write_slam(out: Path, times: np.ndarray, estimates: np.ndarray, online: np.
               yaw_quaternion(experience_map.poses[:, 3]))
 
 
-def _save_map(slam, out: Path, times: np.ndarray, truth: np.ndarray | None, metadata: dict) -> None:
-    """out/map.npz, the final map; with ground truth, each experience's true pose at its creation
-    (``experience_truth``), so later sessions that load the map can score it."""
+def _note_events(estimate, frame: int, book: _Truths, closures: list, merges: list) -> None:
+    """Keep a frame's loop closure or merge with the ground truth of the experience it joined (looked up now:
+    a later merge may renumber the experiences)."""
+    for happened, events in ((estimate.loop_closure, closures), (estimate.merged, merges)):
+        if happened:
+            poses, levels = book.of([estimate.experience_id])
+            events.append((frame, poses[0, :3], levels[0]))
+
+
+def _event_arguments(slam, book: _Truths, closures: list, merges: list | None) -> dict:
+    """The map, loop-closure and merge arguments of :func:`~neuroslam.evaluation.run_metrics`."""
+    experience_truth, experience_levels = book.of(np.arange(slam.experience_map.size))
+
+    def columns(events: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return (np.array([frame for frame, _, _ in events], dtype=int),
+                np.array([pose for _, pose, _ in events]).reshape(-1, 3),
+                np.array([level for _, _, level in events], dtype=int))
+
+    closure_frames, closure_truth, closure_levels = columns(closures)
+    arguments = {"experience_positions": slam.experience_map.poses[:, :3], "experience_truth": experience_truth[:, :3],
+                 "experience_levels": experience_levels, "closure_frames": closure_frames,
+                 "closure_truth": closure_truth, "closure_levels": closure_levels}
+    if merges is not None:
+        arguments["merge_frames"], arguments["merge_truth"], arguments["merge_levels"] = columns(merges)
+    return arguments
+
+
+def _save_map(slam, out: Path, book: _Truths, metadata: dict) -> None:
+    """out/map.npz, the final map, with each experience's true pose and level where it was made
+    (``experience_truth``, ``experience_levels``; NaN and -1 where unknown), so that later sessions which
+    load the map can score the merged map."""
     from .slam import MAP_FILE
 
-    extra = {}
-    if truth is not None:
-        frames = np.minimum(np.searchsorted(times, slam.experience_map.creation_times), len(times) - 1)
-        extra["experience_truth"] = truth[frames]
-    slam.save(out / MAP_FILE, extra=extra, metadata=metadata)
+    poses, levels = book.of(np.arange(slam.experience_map.size))
+    slam.save(out / MAP_FILE, extra={"experience_truth": poses, "experience_levels": levels}, metadata=metadata)
 
 
 def _report(path: Path, title: str, times: np.ndarray, truth: np.ndarray | None, estimates: np.ndarray,
@@ -310,14 +355,74 @@ def _print_rows(rows: list[tuple[str, str]]) -> None:
 
 
 def _slam_from(args: argparse.Namespace):
+    """The NeuroSLAM the options ask for: a preset and config file, or the maps of earlier sessions.
+
+    Returns (slam, truths): the :class:`_Truths` book of every experience's ground truth."""
     from . import presets
     from .config import load_config
+    from .errors import InvalidParameterError
     from .slam import NeuroSLAM
 
-    config = presets.get(args.preset)
-    if args.config is not None:
-        config = load_config(args.config, base=config)
-    return NeuroSLAM(config)
+    maps = getattr(args, "load_map", [])
+    if not maps:
+        config = presets.get(args.preset or "sim")
+        if args.config is not None:
+            config = load_config(args.config, base=config)
+        slam = NeuroSLAM(config)
+        return slam, _Truths(slam, np.zeros((0, 4)), np.zeros(0, dtype=int))
+    if args.preset is not None or args.config is not None:
+        raise InvalidParameterError("--load-map", str(maps[0]), "keeps the configuration its map was built with; "
+                                    "leave out --preset and --config")
+    slam, poses, levels = None, [], []
+    for path in maps:
+        loaded = NeuroSLAM.load(path)
+        size = loaded.experience_map.size
+        poses.append(loaded.map_extra.get("experience_truth", np.full((size, 4), np.nan)))
+        levels.append(loaded.map_extra.get("experience_levels", np.full(size, -1)))
+        if slam is None:
+            slam = loaded
+        else:
+            slam.add_map(loaded)
+    return slam, _Truths(slam, np.concatenate(poses), np.concatenate(levels))
+
+
+class _Truths:
+    """The ground truth of every experience, across sessions: this session's from its frames, the loaded
+    maps' from the truth saved with them (``experience_truth`` and ``experience_levels`` in the map file;
+    NaN and -1 when a map was saved without ground truth). An experience is identified by (session,
+    creation time), which survives merges and fusions; ``loaded_poses``/``loaded_levels`` are in the order
+    of the loaded experiences."""
+
+    def __init__(self, slam, loaded_poses: np.ndarray, loaded_levels: np.ndarray):
+        self.slam = slam
+        themap = slam.experience_map
+        self.loaded = {(int(session), float(time)): (np.asarray(pose, dtype=float), int(level))
+                       for session, time, pose, level in zip(themap.sessions, themap.creation_times, loaded_poses,
+                                                             loaded_levels, strict=True)}
+        self.times: list[float] = []
+        self.poses: list[np.ndarray] = []
+        self.levels: list[int] = []
+
+    def add_frame(self, time: float, pose: np.ndarray | None, level: int = -1) -> None:
+        """This session's next frame: its time, true pose (None if unknown) and level."""
+        self.times.append(time)
+        self.poses.append(np.full(4, np.nan) if pose is None else np.asarray(pose, dtype=float))
+        self.levels.append(level)
+
+    def of(self, experiences) -> tuple[np.ndarray, np.ndarray]:
+        """(K, 4) true poses and (K,) true levels where the given experiences were made."""
+        themap = self.slam.experience_map
+        poses, levels = [], []
+        for experience in np.asarray(experiences, dtype=int).reshape(-1):
+            session, time = int(themap.sessions[experience]), float(themap.creation_times[experience])
+            if session == themap.session and self.times:
+                frame = min(int(np.searchsorted(self.times, time)), len(self.times) - 1)
+                pose, level = self.poses[frame], self.levels[frame]
+            else:
+                pose, level = self.loaded.get((session, time), (np.full(4, np.nan), -1))
+            poses.append(pose)
+            levels.append(level)
+        return np.array(poses).reshape(-1, 4), np.array(levels, dtype=int)
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -339,41 +444,41 @@ def _run(args: argparse.Namespace) -> int:
         groundtruth = type(groundtruth)(groundtruth.positions[: len(frames)], groundtruth.yaw[: len(frames)],
                                         None if groundtruth.times is None else groundtruth.times[: len(frames)])
     times = frame_times(len(frames), groundtruth, args.rate)
-    slam = _slam_from(args)
+    slam, book = _slam_from(args)
+    if args.load_map:
+        slam.begin_session(start=args.start)
     out = args.out or Path("runs") / f"run-{Path(args.frames).resolve().name}-{time.strftime('%Y%m%d-%H%M%S')}"
     out.mkdir(parents=True, exist_ok=True)
     recorder = _recorder(args, out, Path(args.frames).resolve().name)
     truth = None if groundtruth is None else groundtruth.poses
-    estimates, self_motion, closures, active = [], [], [], []
+    estimates, self_motion, closures, merges, active = [], [], [], [], []
     started = time.perf_counter()
     for index, path in enumerate(tqdm(frames, unit="frame", desc=Path(args.frames).name)):
         image = load_frame(path)
         estimate = slam.step(image, float(times[index]))
+        book.add_frame(float(times[index]), None if truth is None else truth[index])
         if recorder is not None:
             recorder.log_frame(float(times[index]), image, slam, estimate, None if truth is None else truth[index])
         estimates.append(estimate.pose)
         active.append((estimate.template_id, estimate.experience_id))
         self_motion.append(slam.odometry_pose)
-        if estimate.loop_closure:
-            closures.append((index, estimate.experience_id))
+        _note_events(estimate, index, book, closures, merges)
     if recorder is not None:
         recorder.close()
     elapsed = time.perf_counter() - started
     online, self_motion = np.array(estimates), np.array(self_motion)
     estimates = slam.trajectory()
     _write_slam(out, times, estimates, online, self_motion, slam)
-    _save_map(slam, out, times, None if groundtruth is None else groundtruth.poses,
-              {"frames": str(Path(args.frames).resolve())})
+    _save_map(slam, out, book, {"frames": str(Path(args.frames).resolve())})
     experience_map = slam.experience_map
     metrics = {"frames": len(frames), "templates": slam.local_view.count, "experiences": experience_map.size,
                "loop_closures": experience_map.loop_closures}
+    if args.load_map:
+        metrics.update(merges=len(slam.merges), merge_frames=[frame for frame, _ in slam.merges])
     if groundtruth is not None:
-        closures = np.array(closures, dtype=int).reshape(-1, 2)
         metrics.update(run_metrics(
             truth=groundtruth.poses, true_levels=None, levels=None, estimate=estimates, odometry=self_motion,
-            experience_positions=experience_map.poses[:, :3],
-            experience_frames=np.searchsorted(times, experience_map.creation_times),
-            closure_frames=closures[:, 0], closure_experiences=closures[:, 1], online_estimate=online))
+            online_estimate=online, **_event_arguments(slam, book, closures, merges if args.load_map else None)))
     metrics["ms_per_frame"] = {"total": 1000 * elapsed / len(frames)}
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     _report(out / "report.png", Path(args.frames).name, times, None if groundtruth is None else groundtruth.poses,
@@ -435,7 +540,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     from .vision.odometry import VisualOdometry
     from .vision.preprocessing import grey
 
-    base = _slam_from(args).config
+    base = _slam_from(args)[0].config
     neutral = dataclasses.replace(base.odometry, speed_scale=1.0, yaw_scale=1.0, climb_scale=1.0,
                                   pitch_flow_bias=0.0, pitch_leak=0.0, max_speed=1e6, max_yaw_rate=1e6,
                                   max_climb_rate=1e6)
@@ -492,6 +597,43 @@ def _metres(value: float | None) -> str:
     return "n/a" if value is None else f"{value:.2f} m"
 
 
+def _map_positions(path: Path) -> np.ndarray:
+    """(N, 3) experience positions of a map.npz, a run's output folder (its map.npz, else experiences.tum),
+    or an experiences.tum file."""
+    from .slam import MAP_FILE, NeuroSLAM
+    from .tum import read_tum
+
+    if path.is_dir() and not (path / MAP_FILE).is_file() and (path / "experiences.tum").is_file():
+        path = path / "experiences.tum"
+    if path.suffix == ".tum":
+        return read_tum(path)[1]
+    return NeuroSLAM.load(path).experience_map.poses[:, :3].copy()
+
+
+def _compare_maps(args: argparse.Namespace) -> int:
+    """The RMSE between two experience maps after ICP (:mod:`neuroslam.evaluation.registration`)."""
+    from .errors import InvalidInputError
+    from .evaluation.registration import compare_maps
+
+    a, b = _map_positions(args.a), _map_positions(args.b)
+    for name, points in (("a", a), ("b", b)):
+        if len(points) < 3:
+            raise InvalidInputError(f"map {name}", f"with {len(points)} experiences", "needs at least 3")
+    result = compare_maps(a, b)
+    if args.json:
+        print(json.dumps(result.as_dict(), indent=2))
+        return 0
+    _print_rows([
+        ("maps", f"A {args.a} ({len(a)} experiences) onto B {args.b} ({len(b)} experiences)"),
+        ("RMSE", f"{result.rmse_m:.3f} m over inliers ({100 * result.inlier_fraction:.1f} % of A), "
+                 f"{result.rmse_all_m:.3f} m over all pairs"),
+        ("transform", "yaw {:.2f} deg, shift ({:.2f}, {:.2f}, {:.2f}) m".format(math.degrees(result.yaw),
+                                                                               *result.translation)),
+        ("iterations", str(result.iterations)),
+    ])
+    return 0
+
+
 def _worlds(_: argparse.Namespace) -> int:
     import sim
 
@@ -507,7 +649,8 @@ def _worlds(_: argparse.Namespace) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``neuroslam`` console script; returns the exit code."""
     args = _parser().parse_args(argv)
-    handlers = {"drive": _drive, "run": _run, "record": _record, "calibrate": _calibrate, "worlds": _worlds}
+    handlers = {"drive": _drive, "run": _run, "record": _record, "calibrate": _calibrate, "worlds": _worlds,
+                "compare-maps": _compare_maps}
     try:
         return handlers[args.command](args)
     except KeyboardInterrupt:

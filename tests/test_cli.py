@@ -92,6 +92,9 @@ def test_bad_files_give_one_line_and_exit_code_2(tmp_path):
         (["run", str(tmp_path / "missing")], "missing"),
         (["run", str(mixed)], "000001.png': 80x60 pixels, but the first frame"),
         (["drive", "carpark", "--max-frames", "2", "--config", str(config)], "grid_cells.size"),
+        (["drive", "carpark", "--max-frames", "2", "--load-map", str(tmp_path / "none.npz")], "does not exist"),
+        (["drive", "carpark", "--max-frames", "2", "--load-map", str(config)], "truncated or corrupted"),
+        (["drive", "carpark", "--max-frames", "2", "--load-map", str(mixed)], "is a directory"),
     ]
     for args, text in cases:
         result = run(*args, "--out", str(tmp_path / "out"))
@@ -124,3 +127,43 @@ def test_fit_odometry_gains_recovers_known_scales():
                              true_height=np.zeros(n))
     assert fit.speed_scale == pytest.approx(8.0) and fit.yaw_scale == pytest.approx(0.8)
     assert fit.height_rmse == pytest.approx(0.0)
+
+
+def test_a_second_session_loads_the_first_map_and_scores_merges(tmp_path):
+    """drive --load-map: the loaded map's experiences keep their ground truth in the new map.npz; metrics.json
+    adds merges, merge_frames and false_merges. A session in another world never merges into it."""
+    first, second, other = tmp_path / "first", tmp_path / "second", tmp_path / "other"
+    assert main(["drive", "gen:2", "--max-frames", "150", "--out", str(first)]) == 0
+    assert main(["drive", "gen:2", "--max-frames", "60", "--load-map", str(first), "--out", str(second)]) == 0
+    summary = json.loads((second / "metrics.json").read_text())
+    assert {"merges", "merge_frames", "false_merges"} <= set(summary)
+    assert summary["merges"] == len(summary["merge_frames"]) and summary["false_merges"] in (0, None)
+    before, after = NeuroSLAM.load(first), NeuroSLAM.load(second)
+    assert after.experience_map.size >= before.experience_map.size
+    truth = after.map_extra["experience_truth"]
+    assert truth.shape == (after.experience_map.size, 4) and np.all(np.isfinite(truth))
+    # another world: its views never line up with the loaded map's, so nothing merges
+    assert main(["drive", "gen:3", "--max-frames", "150", "--load-map", str(first / "map.npz"),
+                 "--out", str(other)]) == 0
+    assert json.loads((other / "metrics.json").read_text())["merges"] == 0
+    assert len(set(NeuroSLAM.load(other).experience_map.components)) == 2
+
+
+def test_compare_maps_reports_the_rmse_after_registration(tmp_path, capsys):
+    from neuroslam.tum import write_tum, yaw_quaternion
+
+    rng = np.random.default_rng(0)
+    t = np.linspace(0, 1, 200)
+    b = np.column_stack([20 * np.cos(2 * np.pi * t) + 4 * np.sin(6 * np.pi * t), 12 * np.sin(2 * np.pi * t),
+                         3.0 * (t > 0.5)])
+    yaw = np.radians(75)
+    a = np.column_stack([np.cos(yaw) * b[:, 0] - np.sin(yaw) * b[:, 1], np.sin(yaw) * b[:, 0] + np.cos(yaw) * b[:, 1],
+                         b[:, 2]]) + [4.0, -2.0, 1.0] + rng.normal(0, 0.05, b.shape)
+    for name, points in (("a.tum", a), ("b.tum", b)):
+        write_tum(tmp_path / name, t, points, yaw_quaternion(np.zeros(len(t))))
+    assert main(["compare-maps", str(tmp_path / "a.tum"), str(tmp_path / "b.tum"), "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["rmse_m"] < 0.15 and result["inlier_fraction"] > 0.95
+    assert result["yaw_deg"] == pytest.approx(-75, abs=0.5)
+    assert main(["compare-maps", str(tmp_path / "a.tum"), str(tmp_path / "b.tum")]) == 0
+    assert "RMSE" in capsys.readouterr().out

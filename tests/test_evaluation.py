@@ -60,12 +60,34 @@ def test_run_metrics_counts_true_closures_per_level():
     truth = np.array([[0, 0, 0, 0], [5, 0, 0, 0], [10, 0, 0, 0], [0.5, 0, 0, 0], [8, 0, 0, 0], [10, 0, 3, 0]], float)
     levels = np.array([0, 0, 0, 0, 0, 1])
     metrics = run_metrics(truth=truth, true_levels=levels, levels=np.array([0.0, 3.0]), estimate=truth,
-                          odometry=truth, experience_positions=truth[:3, :3], experience_frames=np.array([0, 1, 2]),
-                          closure_frames=np.array([3, 4, 5]), closure_experiences=np.array([0, 1, 2]))
+                          odometry=truth, experience_positions=truth[:3, :3], experience_truth=truth[:3, :3],
+                          experience_levels=levels[:3], closure_frames=np.array([3, 4, 5]),
+                          closure_truth=truth[:3, :3], closure_levels=levels[:3])
     assert metrics["loop_closures"] == 3
     assert metrics["false_loop_closures"] == 2
     assert metrics["true_loop_closures_per_level"] == {"0": 1, "1": 0}
     assert metrics["level_accuracy"] == 1.0
+    assert metrics["map_rmse_m"] == 0.0 and "merges" not in metrics
+
+
+def test_run_metrics_scores_merges_and_a_map_with_unknown_places():
+    """Merges judged like loop closures (the place merged at against where the robot truly is); experiences
+    of a loaded map saved without ground truth (NaN) stay out of the map error."""
+    from neuroslam.evaluation import run_metrics
+
+    truth = np.array([[0, 0, 0, 0], [5, 0, 0, 0], [10, 0, 0, 0], [0.5, 0, 0, 0], [8, 0, 0, 0], [10, 0, 3, 0]], float)
+    levels = np.array([0, 0, 0, 0, 0, 1])
+    places = np.array([[0, 0, 0], [5, 0, 0], [10, 0, 0], [np.nan] * 3])
+    mapped = places.copy()
+    mapped[:3] *= 2  # a map at twice the scale is exact after the Sim(3) alignment
+    mapped[3] = [100, 100, 100]
+    metrics = run_metrics(truth=truth, true_levels=levels, levels=np.array([0.0, 3.0]), estimate=truth,
+                          odometry=truth, experience_positions=mapped, experience_truth=places,
+                          closure_frames=np.zeros(0, int), closure_truth=np.zeros((0, 3)), closure_levels=np.zeros(0),
+                          merge_frames=np.array([3, 5]), merge_truth=places[[0, 2]], merge_levels=np.array([0, 0]))
+    assert metrics["map_rmse_m"] == pytest.approx(0.0, abs=1e-9)
+    assert metrics["merges"] == 2 and metrics["merge_frames"] == [3, 5]
+    assert metrics["false_merges"] == 1  # frame 5 is one level above the place it merged at
 
 
 # --- against evo (github.com/MichaelGrupp/evo), the reference implementation of these metrics, where installed ---

@@ -73,10 +73,15 @@ def run_metrics(
     estimate: np.ndarray,
     odometry: np.ndarray,
     experience_positions: np.ndarray,
-    experience_frames: np.ndarray,
+    experience_truth: np.ndarray,
     closure_frames: np.ndarray,
-    closure_experiences: np.ndarray,
+    closure_truth: np.ndarray,
+    experience_levels: np.ndarray | None = None,
+    closure_levels: np.ndarray | None = None,
     online_estimate: np.ndarray | None = None,
+    merge_frames: np.ndarray | None = None,
+    merge_truth: np.ndarray | None = None,
+    merge_levels: np.ndarray | None = None,
 ) -> dict:
     """The accuracy numbers of one run, as plain data for ``metrics.json``.
 
@@ -87,8 +92,13 @@ def run_metrics(
             (:meth:`neuroslam.slam.NeuroSLAM.trajectory`), as SLAM evaluations score a finished run.
         online_estimate: (N, 4) the SLAM estimate as it was at each frame, or None; scored as
             ``slam_online`` beside ``slam`` and ``odometry``.
-        experience_positions: (M, 3) final experience positions. experience_frames: (M,) frame each was made.
-        closure_frames, closure_experiences: frame and re-entered experience of every loop closure.
+        experience_positions: (M, 3) final experience positions. experience_truth: (M, 3) the true position
+            where each was made (NaN where unknown: such experiences are left out of the map error).
+            experience_levels: (M,) their true level indices, or None.
+        closure_frames: (C,) the frame of every loop closure. closure_truth, closure_levels: (C, 3) and (C,)
+            the true position and level where the re-entered experience was made.
+        merge_frames, merge_truth, merge_levels: the same for the merges of a session that loaded maps
+            (adds ``merges``, ``merge_frames`` and ``false_merges``), or None.
 
     Returns ``ate_rmse_m`` and ``ate_se3_rmse_m`` ({slam, odometry[, slam_online]}), ``rpe_rmse_m`` (the same,
     10 m segments), ``map_rmse_m``, ``loop_closures``, ``false_loop_closures``,
@@ -109,19 +119,31 @@ def run_metrics(
         result["ate_se3_rmse_m"][name] = (_rmse(align(poses[:, :3], positions, with_scale=False), positions)
                                           if enough else None)
         result["rpe_rmse_m"][name] = rpe_rmse(poses, truth)
-    made = positions[experience_frames]
-    result["map_rmse_m"] = _rmse(align(experience_positions, made), made) if len(made) >= 3 else None
-    result["loop_closures"] = int(len(closure_frames))
-    now, then = closure_frames, experience_frames[closure_experiences]
-    result["false_loop_closures"] = false_loop_closures(positions[now], positions[then], true_levels[now],
-                                                        true_levels[then])
-    true_closure = ((np.linalg.norm(positions[now] - positions[then], axis=1) <= 2.0)
-                    & (true_levels[now] == true_levels[then]))
+    experience_truth = np.asarray(experience_truth, dtype=float).reshape(-1, 3)
+    known = np.all(np.isfinite(experience_truth), axis=1)
+    made, mapped = experience_truth[known], np.asarray(experience_positions, dtype=float)[known]
+    result["map_rmse_m"] = _rmse(align(mapped, made), made) if len(made) >= 3 else None
+    now = np.asarray(closure_frames, dtype=int)
+    then = np.asarray(closure_truth, dtype=float).reshape(-1, 3)
+    then_levels = np.zeros(len(now), dtype=int) if closure_levels is None else np.asarray(closure_levels)
+    result["loop_closures"] = int(len(now))
+    result["false_loop_closures"] = false_loop_closures(positions[now], then, true_levels[now], then_levels)
+    true_closure = ((np.linalg.norm(positions[now] - then, axis=1) <= 2.0) & (true_levels[now] == then_levels))
     result["true_loop_closures_per_level"] = (
         {str(level): int(np.sum(true_closure & (true_levels[now] == level))) for level in range(len(levels))}
         if known_levels else None)
     result["level_accuracy"] = (level_accuracy(align(estimate[:, :3], positions)[:, 2], true_levels, levels)
                                 if enough and known_levels else None)
+    if merge_frames is not None:
+        merge_frames = np.asarray(merge_frames, dtype=int)
+        merge_then = np.asarray(merge_truth, dtype=float).reshape(-1, 3)
+        merge_then_levels = (np.zeros(len(merge_frames), dtype=int) if merge_levels is None
+                             else np.asarray(merge_levels))
+        result["merges"] = int(len(merge_frames))
+        result["merge_frames"] = [int(frame) for frame in merge_frames]
+        # a merge with a place of unknown truth (a map saved without it) cannot be judged: None
+        result["false_merges"] = (None if not np.all(np.isfinite(merge_then)) else false_loop_closures(
+            positions[merge_frames], merge_then, true_levels[merge_frames], merge_then_levels))
     return result
 
 

@@ -253,6 +253,7 @@ def _drive(args: argparse.Namespace) -> int:
         "odometry": args.odometry,
         "templates": slam.local_view.count,
         "experiences": experience_map.size,
+        "map_components": len(np.unique(experience_map.components)),
         **scores,
         "ms_per_frame": {
             "slam": 1000 * slam_seconds / frames,
@@ -282,6 +283,9 @@ def _drive(args: argparse.Namespace) -> int:
             **summary["ms_per_frame"])),
         ("output", str(out)),
     ]
+    if args.load_map:
+        rows.insert(-3, ("sessions", f"{summary['merges']} merges at frames {summary['merge_frames']} "
+                                     f"({summary['false_merges']} false); {summary['map_components']} separate maps"))
     _print_rows(rows)
     return 0
 
@@ -310,8 +314,12 @@ def _note_events(estimate, frame: int, book: _Truths, closures: list, merges: li
 
 
 def _event_arguments(slam, book: _Truths, closures: list, merges: list | None) -> dict:
-    """The map, loop-closure and merge arguments of :func:`~neuroslam.evaluation.run_metrics`."""
-    experience_truth, experience_levels = book.of(np.arange(slam.experience_map.size))
+    """The map, loop-closure and merge arguments of :func:`~neuroslam.evaluation.run_metrics`. The map scored
+    is the robot's (after merges, the merged map); loaded maps it never met are separate maps in frames of
+    their own, so they are left out (``map_components`` in metrics.json counts them)."""
+    themap = slam.experience_map
+    mine = np.flatnonzero(themap.components == themap.component)
+    experience_truth, experience_levels = book.of(mine)
 
     def columns(events: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return (np.array([frame for frame, _, _ in events], dtype=int),
@@ -319,7 +327,7 @@ def _event_arguments(slam, book: _Truths, closures: list, merges: list | None) -
                 np.array([level for _, _, level in events], dtype=int))
 
     closure_frames, closure_truth, closure_levels = columns(closures)
-    arguments = {"experience_positions": slam.experience_map.poses[:, :3], "experience_truth": experience_truth[:, :3],
+    arguments = {"experience_positions": themap.poses[mine, :3], "experience_truth": experience_truth[:, :3],
                  "experience_levels": experience_levels, "closure_frames": closure_frames,
                  "closure_truth": closure_truth, "closure_levels": closure_levels}
     if merges is not None:
@@ -472,6 +480,7 @@ def _run(args: argparse.Namespace) -> int:
     _save_map(slam, out, book, {"frames": str(Path(args.frames).resolve())})
     experience_map = slam.experience_map
     metrics = {"frames": len(frames), "templates": slam.local_view.count, "experiences": experience_map.size,
+               "map_components": len(np.unique(experience_map.components)),
                "loop_closures": experience_map.loop_closures}
     if args.load_map:
         metrics.update(merges=len(slam.merges), merge_frames=[frame for frame, _ in slam.merges])

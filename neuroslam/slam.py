@@ -510,8 +510,10 @@ class NeuroSLAM:
 
         :func:`~neuroslam.loop_closure.confirm_place` over each other component that holds the current
         view, with no search radius (where the robot is in that map is unknown): every window frame's view
-        must lie where the hypothesis puts it, and views seen at several places of that map are no
-        evidence. Two components both confirmed: nothing (ambiguous).
+        must lie where the hypothesis puts it, and views seen at several places of that map are no evidence
+        (without a radius to bound them, a run of views along one lane of a repetitive place would otherwise
+        also fit a look-alike lane: measured on the car park's deck, whose north and south lanes look the
+        same). Two components both confirmed: nothing (ambiguous).
         """
         themap = self.experience_map
         experiences = themap.experiences_of(template)

@@ -62,6 +62,12 @@ def test_record_then_run_with_ground_truth(tmp_path, capsys):
     assert metrics["frames"] == 40 and metrics["ate_rmse_m"]["slam"] >= 0 and metrics["level_accuracy"] is None
     for name in ("slam.tum", "slam_online.tum", "odometry.tum", "experiences.tum", "report.png", "map.npz"):
         assert (run / name).is_file()
+    # a second session over the same frames, holding the first one's map
+    again = tmp_path / "again"
+    assert main(["run", str(dataset), "--groundtruth", str(dataset / "groundtruth.tum"), "--load-map", str(run),
+                 "--start", "known", "--out", str(again)]) == 0
+    metrics = json.loads((again / "metrics.json").read_text())
+    assert metrics["merges"] == 0 and metrics["map_components"] == 1  # a known start continues in the map
     # a folder of frames without ground truth runs too, timed by --rate
     assert main(["run", str(dataset / "frames"), "--rate", "5", "--out", str(tmp_path / "bare")]) == 0
     assert "ate_rmse_m" not in json.loads((tmp_path / "bare" / "metrics.json").read_text())

@@ -59,6 +59,10 @@ def _slam_options(parser: argparse.ArgumentParser, *, sessions: bool = False) ->
     """Options choosing the NeuroSLAM parameters (and, for drive and run, maps of earlier sessions)."""
     parser.add_argument("--preset", help="NeuroSLAM parameter preset (default: sim)")
     parser.add_argument("--config", type=Path, help="TOML or JSON file of NeuroSLAM settings over the preset")
+    parser.add_argument("--integrator", choices=["odometry", "grid-network"],
+                        help="how the displacement that links experiences is integrated: the self-motion directly "
+                        "(odometry, the paper) or through the Burak-Fiete grid-cell network (grid-network) "
+                        "(default: the preset's, odometry)")
     if sessions:
         parser.add_argument("--load-map", type=Path, action="append", default=[], metavar="MAP",
                             help="a map of an earlier session (a map.npz, or a run's output folder); repeat for "
@@ -376,11 +380,13 @@ def _slam_from(args: argparse.Namespace):
         config = presets.get(args.preset or "sim")
         if args.config is not None:
             config = load_config(args.config, base=config)
+        if args.integrator is not None:
+            config = config.replace(integrator=args.integrator)
         slam = NeuroSLAM(config)
         return slam, _Truths(slam, np.zeros((0, 4)), np.zeros(0, dtype=int))
-    if args.preset is not None or args.config is not None:
+    if args.preset is not None or args.config is not None or args.integrator is not None:
         raise InvalidParameterError("--load-map", str(maps[0]), "keeps the configuration its map was built with; "
-                                    "leave out --preset and --config")
+                                    "leave out --preset, --config and --integrator")
     slam, poses, levels = None, [], []
     for path in maps:
         loaded = NeuroSLAM.load(path)

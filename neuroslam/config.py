@@ -46,8 +46,8 @@ from typing import Any
 from .errors import InvalidParameterError
 
 __all__ = [
-    "Config", "ExperienceMapConfig", "GridCellConfig", "HeadDirectionConfig", "LocalViewConfig", "Region",
-    "VisualOdometryConfig", "load_config",
+    "Config", "ExperienceMapConfig", "GridCellConfig", "GridNetworkConfig", "HeadDirectionConfig", "LocalViewConfig",
+    "Region", "VisualOdometryConfig", "load_config",
 ]
 
 
@@ -56,6 +56,7 @@ def _number(value: object) -> bool:
 
 
 RELAXATIONS = ("passes", "least-squares")
+INTEGRATORS = ("odometry", "grid-network")
 LOOP_CLOSURES = ("code", "confirmed")
 
 
@@ -304,6 +305,63 @@ class HeadDirectionConfig:
 
 
 @dataclass(frozen=True)
+class GridNetworkConfig:
+    """The Burak–Fiete periodic grid-cell network (grid-network paper, eqs. 1–5, Tables I–II).
+
+    Attributes:
+        size: n, neurons along each side of the n × n sheet (a torus).
+        time_constant: tau of eq. 1, ms. time_step: the Euler step of eq. 1, ms.
+        excitation_scale: alpha of eq. 3. lattice_period: the lambda with beta = 3 / lambda² of eq. 3, neurons.
+        surround_ratio: gamma / beta of eq. 3 (1.05).
+        weight_shift: l of eq. 2, neurons: each neuron's outgoing weights shifted along its preferred direction.
+        velocity_gain: eta of eq. 4.
+        velocity_scale: the velocity input of eq. 4 per m/s of the robot's speed; the pattern flows linearly
+            with its input (0.36 neurons per step per unit of eta × v) only while eta × this × speed stays
+            below about 0.04 (measured: beyond it the lattice deforms), so the default keeps 2 m/s there.
+        steps_per_frame: Euler steps of eq. 1 per camera frame (the accuracy/speed trade-off:
+            ``benchmarks/grid_network.py``).
+        search_radius: Delta of Table I, neurons: the read-out looks for the shift within ±Delta.
+        settle_steps: steps at rest from a random start before use, so that the lattice forms.
+        seed: of that random start.
+    """
+
+    size: int = 128
+    time_constant: float = 5.0
+    time_step: float = 0.5
+    excitation_scale: float = 1.0
+    lattice_period: float = 18.0
+    surround_ratio: float = 1.05
+    weight_shift: float = 2.0
+    velocity_gain: float = 2.0
+    velocity_scale: float = 0.01
+    steps_per_frame: int = 10
+    search_radius: int = 9
+    settle_steps: int = 2000
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self, path: str = "grid_network") -> None:
+        _require(f"{path}.size", self.size, isinstance(self.size, int) and not isinstance(self.size, bool)
+                 and 16 <= self.size <= 1024, "must be an integer from 16 to 1024 (neurons)")
+        _positive(path, time_constant=self.time_constant, time_step=self.time_step,
+                  excitation_scale=self.excitation_scale, lattice_period=self.lattice_period,
+                  surround_ratio=self.surround_ratio, velocity_scale=self.velocity_scale)
+        _non_negative(path, weight_shift=self.weight_shift, velocity_gain=self.velocity_gain)
+        _require(f"{path}.time_step", self.time_step, self.time_step <= self.time_constant,
+                 "must not exceed time_constant (the Euler step of eq. 1 would overshoot)")
+        for name, low in (("steps_per_frame", 1), ("search_radius", 1), ("settle_steps", 0)):
+            value = getattr(self, name)
+            _require(f"{path}.{name}", value, isinstance(value, int) and not isinstance(value, bool)
+                     and low <= value <= 100_000, f"must be an integer from {low} to 100000")
+        _require(f"{path}.search_radius", self.search_radius, self.search_radius < self.size // 2,
+                 "must be below half the sheet")
+        _require(f"{path}.seed", self.seed, isinstance(self.seed, int) and not isinstance(self.seed, bool),
+                 "must be an integer")
+
+
+@dataclass(frozen=True)
 class ExperienceMapConfig:
     """Multilayered experience map (eqs. 21–25).
 
@@ -391,16 +449,21 @@ class Config:
         horizontal_fov: the camera's horizontal field of view, rad (2 pi for a panorama).
         vertical_fov: the camera's vertical field of view, rad.
         panoramic: True when image columns wrap around (a 360-degree strip).
+        integrator: how the odometric displacement that links experiences is integrated: ``odometry``
+            (the self-motion directly, as the paper) or ``grid-network`` (through the Burak–Fiete network
+            of the grid-network paper, ``grid_network``; :mod:`neuroslam.cells.grid_network`).
     """
 
     horizontal_fov: float = math.radians(80.0)
     vertical_fov: float = 2 * math.atan(math.tan(math.radians(40.0)) * 0.75)
     panoramic: bool = False
+    integrator: str = "odometry"
     odometry: VisualOdometryConfig = field(default_factory=VisualOdometryConfig)
     local_view: LocalViewConfig = field(default_factory=LocalViewConfig)
     grid_cells: GridCellConfig = field(default_factory=GridCellConfig)
     head_direction: HeadDirectionConfig = field(default_factory=HeadDirectionConfig)
     experience_map: ExperienceMapConfig = field(default_factory=ExperienceMapConfig)
+    grid_network: GridNetworkConfig = field(default_factory=GridNetworkConfig)
 
     def __post_init__(self) -> None:
         _require("horizontal_fov", self.horizontal_fov, _number(self.horizontal_fov)
@@ -408,6 +471,8 @@ class Config:
         _require("vertical_fov", self.vertical_fov, _number(self.vertical_fov) and 0 < self.vertical_fov < math.pi,
                  "must be in (0, pi) radians")
         _require("panoramic", self.panoramic, isinstance(self.panoramic, bool), "must be true or false")
+        _require("integrator", self.integrator, self.integrator in INTEGRATORS,
+                 f"must be one of {', '.join(INTEGRATORS)}")
         if self.panoramic and isinstance(self.odometry, VisualOdometryConfig):
             _require("odometry.planar_motion", self.odometry.planar_motion, self.odometry.planar_motion == "profile",
                      "must be 'profile' for a panoramic camera (the ground-plane model needs a pinhole camera)")
@@ -438,7 +503,7 @@ class Config:
 
 _SECTIONS = {
     "odometry": VisualOdometryConfig, "local_view": LocalViewConfig, "grid_cells": GridCellConfig,
-    "head_direction": HeadDirectionConfig, "experience_map": ExperienceMapConfig,
+    "head_direction": HeadDirectionConfig, "experience_map": ExperienceMapConfig, "grid_network": GridNetworkConfig,
 }
 
 

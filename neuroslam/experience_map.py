@@ -368,9 +368,10 @@ class ExperienceMap:
                          z + relative[2], float(_wrap(yaw + relative[3]))])
 
     # per frame ----------------------------------------------------------------------------------------
-    def integrate(self, distance: float, yaw_change: float, height_change: float) -> None:
-        """Add one frame of self-motion (m, rad, m) to the odometry since the current experience."""
-        heading = self.relative[3] + yaw_change / 2
+    def integrate(self, distance: float, yaw_change: float, height_change: float, drift: float = 0.0) -> None:
+        """Add one frame of self-motion (m, rad, m) to the odometry since the current experience; ``drift``
+        (rad) turns the direction of travel off the heading (the grid network's read-out, eq. 5)."""
+        heading = self.relative[3] + yaw_change / 2 + drift
         self.relative += [distance * math.cos(heading), distance * math.sin(heading), height_change, yaw_change]
 
     def scores(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray) -> np.ndarray:

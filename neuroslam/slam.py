@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from .cells import GridCells, HeadDirectionCells
+from .cells.grid_network import GridNetwork
 from .config import Config, load_config
 from .errors import InvalidInputError, InvalidParameterError
 from .experience_map import ExperienceMap, _Growing
@@ -95,6 +96,8 @@ class NeuroSLAM:
         self.local_view = LocalViewCells(c.local_view, horizontal_fov=c.horizontal_fov, panoramic=c.panoramic)
         self.grid_cells = GridCells(c.grid_cells)
         self.head_direction = HeadDirectionCells(c.head_direction)
+        # the Burak–Fiete network, when it integrates the planar self-motion (config.integrator)
+        self.grid_network = GridNetwork(c.grid_network) if c.integrator == "grid-network" else None
         self.experience_map = ExperienceMap(c.experience_map, grid_size=c.grid_cells.size,
                                             direction_size=c.head_direction.size, grid_cell_size=c.grid_cells.cell_size)
         self._view_grid = np.zeros((64, 3))
@@ -177,7 +180,13 @@ class NeuroSLAM:
         self.head_direction.step(yaw_change, climb)
         direction_code = self.head_direction.decode()
         heading = direction_code[0] * self.head_direction.yaw_cell_size
-        self.grid_cells.step((distance * math.cos(heading), distance * math.sin(heading), climb))
+        # the direction of travel off the heading that the grid network's read-out gives (eq. 5), rad
+        drift = 0.0
+        if self.grid_network is not None:
+            dx, dy = self.grid_network.integrate(distance, heading, dt)
+            if distance > 0:
+                drift = math.remainder(math.atan2(dy, dx) - heading, 2 * math.pi)
+        self.grid_cells.step((distance * math.cos(heading + drift), distance * math.sin(heading + drift), climb))
         grid_code = self.grid_cells.decode()
 
         themap = self.experience_map
@@ -188,10 +197,10 @@ class NeuroSLAM:
             grid_code = self.grid_cells.decode()
             direction_code = self.head_direction.decode()
         x, y, z, yaw = self._odometry_pose
-        middle = yaw + yaw_change / 2
+        middle = yaw + yaw_change / 2 + drift
         self._odometry_pose = np.array([x + distance * math.cos(middle), y + distance * math.sin(middle), z + climb,
                                         math.atan2(math.sin(yaw + yaw_change), math.cos(yaw + yaw_change))])
-        themap.integrate(distance, yaw_change, climb)  # the robot's pose in the map includes this frame's motion
+        themap.integrate(distance, yaw_change, climb, drift)  # the robot's pose in the map includes this frame's motion
         may_close_loop, merged = True, False
         self._since_closure += distance
         spacing = self.config.experience_map.confirmation_spacing
@@ -257,6 +266,8 @@ class NeuroSLAM:
         parts = {"odometry": self.visual_odometry, "local_view": self.local_view,
                  "grid_cells": self.grid_cells.network, "head_direction": self.head_direction.network,
                  "experience_map": self.experience_map}
+        if self.grid_network is not None:
+            parts["grid_network"] = self.grid_network
         for prefix, part in parts.items():
             state.update({f"{prefix}.{key}": value for key, value in part.state_dict().items()})
         templates = self.local_view.count
@@ -316,6 +327,8 @@ class NeuroSLAM:
             self.grid_cells.network.load_state_dict(part("grid_cells"))
             self.head_direction.network.load_state_dict(part("head_direction"))
             self.experience_map.load_state_dict(part("experience_map"))
+            if self.grid_network is not None:
+                self.grid_network.load_state_dict(part("grid_network"))
             capacity = max(64, templates)
             self._view_grid, self._view_direction, self._view_decay = (
                 np.concatenate([array, np.zeros((capacity - templates, array.shape[1]))])

@@ -227,7 +227,36 @@ def carpark(seed: int = 1) -> WorldSource:
                 if builder.rng.uniform() < 0.75:
                     _parked_car(builder, (x0 + x1) / 2, y, height, math.pi / 2 + builder.rng.normal(0, 0.05))
     return WorldSource("carpark", builder.to_xml(), {"levels": list(layout.levels), "routes": {
-        "main": {"waypoints": main_route(layout), "loop": True}}})
+        "main": {"waypoints": main_route(layout), "loop": True}, **_session_routes(layout, core, xs)}})
+
+
+def _session_routes(layout: StoreyLayout, core: Rect, pillars: np.ndarray) -> dict[str, dict]:
+    """Loops on the car park's ground floor for multisession experiments, all driven the way the main route
+    drives its ground ring (west along the south lane, north along the west lane, east along the north
+    lane, south along the east lane), so that their views match the main route's where they overlap.
+
+    ``west`` uses the free column between the last two pillar columns as its east side; ``ground`` is the
+    whole ring (it starts at the north-east corner, where ``west`` never goes); ``west-then-ground`` drives
+    one and then the other; ``south-block`` and ``north-block`` are the halves south and north of the
+    middle pillar row (rows midway to the outer pillar rows), which never meet.
+    """
+    lane = _lanes(layout)
+    west, east, south, north = lane["west"], lane["east"], lane["south"], lane["north"]
+    column = round(float(pillars[-2] + pillars[-1]) / 2, 1)
+    row = round((core.y1 - 0.6) / 2, 1)
+    floor = layout.levels[0]
+
+    def loop(*points: tuple[float, float]) -> dict:
+        return {"waypoints": [[float(x), float(y), floor] for x, y in points], "loop": True}
+
+    return {
+        "west": loop((column, south), (west, south), (west, north), (column, north)),
+        "ground": loop((east, north), (east, south), (west, south), (west, north)),
+        "west-then-ground": loop((column, south), (west, south), (west, north), (column, north), (column, south),
+                                 (west, south), (west, north), (east, north), (east, south)),
+        "south-block": loop((column, south), (west, south), (west, -row), (column, -row)),
+        "north-block": loop((west, north), (column, north), (column, row), (west, row)),
+    }
 
 
 def _rooms(builder: WorldBuilder, core: Rect, floor: float, height: float, rooms: int) -> None:

@@ -323,6 +323,8 @@ class GridNetworkConfig:
         search_radius: Delta of Table I, neurons: the read-out looks for the shift within ±Delta.
         settle_steps: steps at rest from a random start before use, so that the lattice forms.
         seed: of that random start.
+        calibration_directions: headings at which the settled lattice's flow direction is measured once
+            against its input, to correct the read-out (0: no correction).
     """
 
     size: int = 128
@@ -338,6 +340,7 @@ class GridNetworkConfig:
     search_radius: int = 9
     settle_steps: int = 2000
     seed: int = 0
+    calibration_directions: int = 24
 
     def __post_init__(self) -> None:
         self.validate()
@@ -351,7 +354,8 @@ class GridNetworkConfig:
         _non_negative(path, weight_shift=self.weight_shift, velocity_gain=self.velocity_gain)
         _require(f"{path}.time_step", self.time_step, self.time_step <= self.time_constant,
                  "must not exceed time_constant (the Euler step of eq. 1 would overshoot)")
-        for name, low in (("steps_per_frame", 1), ("search_radius", 1), ("settle_steps", 0)):
+        for name, low in (("steps_per_frame", 1), ("search_radius", 1), ("settle_steps", 0),
+                          ("calibration_directions", 0)):
             value = getattr(self, name)
             _require(f"{path}.{name}", value, isinstance(value, int) and not isinstance(value, bool)
                      and low <= value <= 100_000, f"must be an integer from {low} to 100000")

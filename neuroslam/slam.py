@@ -180,12 +180,15 @@ class NeuroSLAM:
         self.head_direction.step(yaw_change, climb)
         direction_code = self.head_direction.decode()
         heading = direction_code[0] * self.head_direction.yaw_cell_size
-        # the direction of travel off the heading that the grid network's read-out gives (eq. 5), rad
+        # the direction of travel off the odometric heading that the grid network's read-out gives (eq. 5),
+        # rad; the network is driven along the heading accumulated from the rotations (as the paper does:
+        # the head-direction packet jumps when a view calibrates it, which the network would follow late)
         drift = 0.0
         if self.grid_network is not None:
-            dx, dy = self.grid_network.integrate(distance, heading, dt)
+            travel = self._odometry_pose[3] + yaw_change / 2
+            dx, dy = self.grid_network.integrate(distance, travel, dt)
             if distance > 0:
-                drift = math.remainder(math.atan2(dy, dx) - heading, 2 * math.pi)
+                drift = math.remainder(math.atan2(dy, dx) - travel, 2 * math.pi)
         self.grid_cells.step((distance * math.cos(heading + drift), distance * math.sin(heading + drift), climb))
         grid_code = self.grid_cells.decode()
 

@@ -167,3 +167,10 @@ def test_compare_maps_reports_the_rmse_after_registration(tmp_path, capsys):
     assert result["yaw_deg"] == pytest.approx(-75, abs=0.5)
     assert main(["compare-maps", str(tmp_path / "a.tum"), str(tmp_path / "b.tum")]) == 0
     assert "RMSE" in capsys.readouterr().out
+
+
+def test_drive_with_the_grid_network_integrator(tmp_path):
+    assert main(["drive", "gen:2", "--max-frames", "30", "--integrator", "grid-network", "--out", str(tmp_path)]) == 0
+    saved = NeuroSLAM.load(tmp_path)
+    assert saved.config.integrator == "grid-network" and saved.grid_network is not None
+    assert json.loads((tmp_path / "metrics.json").read_text())["frames"] == 30

@@ -32,6 +32,14 @@ def test_presets_exist_and_differ():
      "experience_map.confirmation_matches", "from 1 to confirmation_window"),
     ({"experience_map": {"confirmation_tolerance": 0}}, "experience_map.confirmation_tolerance", "positive"),
     ({"experience_map": {"confirmation_drift": -0.1}}, "experience_map.confirmation_drift", ">= 0"),
+    ({"integrator": "pose-cells"}, "integrator", "odometry, grid-network"),
+    ({"grid_network": {"size": 8}}, "grid_network.size", "from 16 to 1024"),
+    ({"grid_network": {"time_step": 10}}, "grid_network.time_step", "time_constant"),
+    ({"grid_network": {"steps_per_frame": 0}}, "grid_network.steps_per_frame", "from 1"),
+    ({"grid_network": {"search_radius": 64}}, "grid_network.search_radius", "half the sheet"),
+    ({"grid_network": {"lattice_period": -18}}, "grid_network.lattice_period", "positive"),
+    ({"grid_network": {"steps_perframe": 10}}, "grid_network.steps_perframe",
+     "did you mean 'grid_network.steps_per_frame'"),
 ])
 def test_bad_settings_name_the_field(data, field, text):
     with pytest.raises(InvalidParameterError) as error:

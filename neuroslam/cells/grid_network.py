@@ -26,9 +26,12 @@ matches the later one), which is accurate to about 0.001 neurons where a parabol
 by up to 0.1 (direction errors of 2 degrees at the flows a frame produces).
 
 The metric displacement (eq. 5) takes only the direction of that shift; its length is the distance driven:
-r = distance (dx, dy) / |(dx, dy)|. The sheet's axes are the world's x and y (eq. 5's minus sign for dy
-comes from the image row axis of the paper's figures, which this sheet does not have). Heading comes from
-the head-direction cells and height from the height rate: the network integrates planar motion only.
+r = distance (dx, dy) / |(dx, dy)|. The lattice flows slightly off its input's direction (up to about a
+degree, depending on the heading against the lattice's axes); the network measures that once, after it
+settles (``calibration_directions`` headings), and the read-out direction is corrected by it. The
+sheet's axes are the world's x and y (eq. 5's minus sign for dy comes from the image row axis of the
+paper's figures, which this sheet does not have). Heading comes from outside (the rotations accumulated)
+and height from the height rate: the network integrates planar motion only.
 """
 
 from __future__ import annotations
@@ -50,10 +53,9 @@ REFINEMENT_SETTLED = 1e-5  # neurons: the refinement stops once a step is smalle
 def _fourier_shift(spectrum: np.ndarray, shape: tuple[int, int], shift: np.ndarray) -> np.ndarray:
     """The real array whose real-FFT ``spectrum`` is given, shifted circularly by ``shift`` (cells, any
     fraction) along its two axes: a multiplication by the phase ramp of the shift."""
-    rows = np.fft.fftfreq(shape[0])[:, None]
-    columns = np.fft.rfftfreq(shape[1])[None, :]
-    ramp = np.exp(-2j * math.pi * (rows * shift[0] + columns * shift[1]))
-    return fft.irfft2(spectrum * ramp, s=shape)
+    rows = np.exp(-2j * math.pi * np.fft.fftfreq(shape[0]) * shift[0])  # the ramp is separable
+    columns = np.exp(-2j * math.pi * np.fft.rfftfreq(shape[1]) * shift[1])
+    return fft.irfft2(spectrum * rows[:, None] * columns[None, :], s=shape)
 
 
 def cyclic_shift(previous: np.ndarray, current: np.ndarray, search_radius: int) -> np.ndarray:
@@ -130,6 +132,7 @@ class GridNetwork:
         rng = np.random.default_rng(config.seed)
         self.activity = rng.uniform(0.0, 0.1, self.shape).astype(np.float32)
         self.step(np.zeros(2), config.settle_steps)
+        self.direction_bias = self._calibrate() if config.calibration_directions else np.zeros(0)
 
     def step(self, velocity: np.ndarray, steps: int = 1) -> None:
         """``steps`` Euler steps of eq. 1 with the velocity input ``v`` of eq. 4 (network units; see
@@ -143,6 +146,36 @@ class GridNetwork:
             recurrent = fft.irfft2(spectrum, s=self.shape)
             activity = activity + rate * (np.maximum(recurrent + drive, 0.0) - activity)
         self.activity = activity.astype(np.float32, copy=False)
+
+    def _calibrate(self) -> np.ndarray:
+        """The lattice's own direction error: for each of ``calibration_directions`` headings, how far the
+        read-out flow direction turns from the input's at 1 m/s (rad). A triangular lattice flows slightly
+        off its input (up to about 1 degree, depending on the heading against the lattice's axes, which the
+        random start sets); :meth:`integrate` subtracts it. The activity is left as it was."""
+        settled = self.activity.copy()
+        config = self.config
+        biases = []
+        for heading in np.linspace(0, 2 * math.pi, config.calibration_directions, endpoint=False):
+            velocity = config.velocity_scale * np.array([math.cos(heading), math.sin(heading)])
+            self.activity = settled.copy()
+            self.step(velocity, 6 * config.steps_per_frame)  # let the flow settle into its direction
+            before = self.activity
+            self.step(velocity, 3 * config.steps_per_frame)
+            shift = cyclic_shift(before, self.activity, config.search_radius)
+            biases.append(math.remainder(math.atan2(shift[1], shift[0]) - heading, 2 * math.pi))
+        self.activity = settled
+        return np.array(biases)
+
+    def _corrected(self, direction: float) -> float:
+        """A read-out flow direction (rad) less the calibrated bias at that direction (interpolated)."""
+        count = len(self.direction_bias)
+        if count == 0:
+            return direction
+        position = (direction % (2 * math.pi)) / (2 * math.pi) * count
+        below = int(position) % count
+        fraction = position - int(position)
+        return direction - ((1 - fraction) * self.direction_bias[below]
+                            + fraction * self.direction_bias[(below + 1) % count])
 
     def integrate(self, distance: float, heading: float, dt: float) -> tuple[float, float]:
         """One frame: drive the network with the robot's velocity (``distance`` m along ``heading`` rad over
@@ -158,10 +191,10 @@ class GridNetwork:
         if distance == 0:
             return 0.0, 0.0
         shift = cyclic_shift(before, self.activity, config.search_radius)
-        length = math.hypot(shift[0], shift[1])
-        if length < 1e-9:  # no measurable flow: eq. 5 has no direction; keep the heading
+        if math.hypot(shift[0], shift[1]) < 1e-9:  # no measurable flow: eq. 5 has no direction; keep the heading
             return distance * math.cos(heading), distance * math.sin(heading)
-        return distance * shift[0] / length, distance * shift[1] / length
+        direction = self._corrected(math.atan2(shift[1], shift[0]))
+        return distance * math.cos(direction), distance * math.sin(direction)
 
     def state_dict(self) -> dict[str, np.ndarray]:
         """The network's state (its activity), for saving."""

@@ -1,0 +1,97 @@
+"""Loop-closure precision and recall of the two rules, on the testbed's worlds (camera only, 2 laps).
+
+Run: ``python benchmarks/loop_closure_rules.py [--worlds carpark urban building gen:1 gen:2 gen:3]``
+(about 1.5 minutes a world and rule). Rules: ``code`` (the paper: re-entering any experience whose
+conjunctive code matches closes a loop, eq. 22) and ``confirmed`` (the grid-network paper's rule, made
+geometric: ``neuroslam.loop_closure``; the ``sim`` default).
+
+Printed per world and rule:
+
+- closures, and **closure precision**: the share of loop closures whose two places are within 2 m and on
+  the same level in ground truth;
+- **revisit recall**: of the frames on which the robot is truly back at a place it passed at least 30 s
+  before (within 2 m, same level), the share on which its current experience is such an old one (made
+  within 2 m of where the robot truly is, on its level): the map recognised the revisit, whether by a
+  closure event on that frame or by following the links of an earlier one;
+- **revisit precision**: of the frames on which the current experience is an old one (made at least 30 s
+  before), the share on which it truly lies within 2 m on the robot's level;
+- SLAM ATE (the final trajectory, Sim(3)) and ms per frame of SLAM.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import time
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from neuroslam import NeuroSLAM, presets
+from neuroslam.evaluation import ate_rmse
+
+REVISIT_AGE = 30.0  # s: a place passed at least this long ago counts as a revisit
+NEAR = 2.0  # m
+
+
+def drive(world: str, rule: str) -> dict:
+    """One 2-lap drive of ``world``'s main route with the given loop-closure rule; the scores."""
+    import sim
+
+    config = presets.get("sim")
+    config = config.replace(experience_map=dataclasses.replace(config.experience_map, loop_closure=rule))
+    slam = NeuroSLAM(config)
+    times, truth, levels, current, closures = [], [], [], [], []
+    seconds = 0.0
+    with sim.ScriptedDrive(world, laps=2, seed=0) as frames:
+        for frame in frames:
+            started = time.perf_counter()
+            estimate = slam.step(frame.image, frame.time)
+            seconds += time.perf_counter() - started
+            times.append(frame.time)
+            truth.append(frame.ground_truth.pose)
+            levels.append(frame.ground_truth.level)
+            current.append(estimate.experience_id)
+            closures.append(estimate.loop_closure)
+    times, truth, levels = np.array(times), np.array(truth), np.array(levels)
+    current, closures = np.array(current), np.array(closures)
+    themap = slam.experience_map
+    made = np.minimum(np.searchsorted(times, themap.creation_times), len(times) - 1)  # creation frames
+    place, place_level = truth[made[current], :3], levels[made[current]]
+    on_place = (np.linalg.norm(place - truth[:, :3], axis=1) <= NEAR) & (place_level == levels)
+    old = themap.creation_times[current] < times - REVISIT_AGE
+    # frames truly back at a place passed REVISIT_AGE before, on the same level
+    revisit = np.zeros(len(times), dtype=bool)
+    for level in np.unique(levels):
+        frames_here = np.flatnonzero(levels == level)
+        tree = cKDTree(truth[frames_here, :2])
+        for index, neighbours in zip(frames_here, tree.query_ball_point(truth[frames_here, :2], NEAR), strict=True):
+            revisit[index] = np.any(times[frames_here[neighbours]] < times[index] - REVISIT_AGE)
+    true_closures = closures & on_place
+    return {
+        "closures": int(closures.sum()),
+        "closure_precision": float(true_closures.sum() / max(closures.sum(), 1)),
+        "revisit_recall": float((revisit & old & on_place).sum() / max(revisit.sum(), 1)),
+        "revisit_precision": float((old & on_place).sum() / max(old.sum(), 1)),
+        "ate": ate_rmse(slam.trajectory()[:, :3], truth[:, :3]),
+        "ms": 1000 * seconds / len(times),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--worlds", nargs="+", default=["carpark", "urban", "building", "gen:1", "gen:2", "gen:3"])
+    parser.add_argument("--rules", nargs="+", default=["code", "confirmed"])
+    args = parser.parse_args()
+    print(f"{'world':<10} {'rule':<10} {'closures':>8} {'precision':>9} {'revisit recall':>14} "
+          f"{'revisit precision':>17} {'SLAM ATE m':>10} {'ms':>6}")
+    for world in args.worlds:
+        for rule in args.rules:
+            r = drive(world, rule)
+            print(f"{world:<10} {rule:<10} {r['closures']:>8} {r['closure_precision']:>9.3f} "
+                  f"{r['revisit_recall']:>14.3f} {r['revisit_precision']:>17.3f} {r['ate']:>10.2f} {r['ms']:>6.2f}",
+                  flush=True)
+
+
+if __name__ == "__main__":
+    main()

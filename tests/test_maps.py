@@ -184,3 +184,17 @@ def test_a_failed_save_keeps_the_previous_map(tmp_path, monkeypatch):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["map.npz"]  # no temporary file left behind
     header, arrays = read_map(path)
     assert header["version"] == FORMAT_VERSION and "grid_cells.activity" in arrays
+
+
+def test_a_session_with_the_grid_network_continues_exactly(tmp_path):
+    config = SQUARE_CONFIG.replace(integrator="grid-network")
+    frames = list(_square_stream())
+    reference, first = NeuroSLAM(config), NeuroSLAM(config)
+    for view, t, motion in frames[:30]:
+        reference.step(view, t, odometry=motion)
+        first.step(view, t, odometry=motion)
+    second = NeuroSLAM.load(first.save(tmp_path / "map.npz"))
+    for view, t, motion in frames[30:50]:
+        np.testing.assert_array_equal(second.step(view, t, odometry=motion).pose,
+                                      reference.step(view, t, odometry=motion).pose)
+    _assert_same_state(reference, second)

@@ -7,6 +7,7 @@ Commands:
     calibrate  fit the visual-odometry gains to ground truth and write a config file
     worlds  list the built-in worlds with their levels and routes
     compare-maps  the RMSE between two experience maps after ICP registration
+    sweep   many drives (worlds x seeds x parameter settings) as Ray tasks
 """
 
 from __future__ import annotations
@@ -165,6 +166,26 @@ def _parser() -> argparse.ArgumentParser:
     compare.add_argument("a", type=Path, help="map A (registered onto B)")
     compare.add_argument("b", type=Path, help="map B (the reference)")
     compare.add_argument("--json", action="store_true", help="print the result as JSON")
+
+    sweep = commands.add_parser(
+        "sweep", help="many drives (worlds x seeds x parameter settings) as Ray tasks",
+        description="Run every (world, seed, parameter setting) drive as a Ray task, on a local Ray instance "
+        "started for the run, or on an existing cluster with --address, and write OUT/results.csv (one row per "
+        "drive: world, seed, status ok/failed, error, the grid values, and every number of its metrics.json "
+        "flattened with dots), each drive's outputs under OUT/drives/, and print a summary per world and "
+        "setting. Running the same sweep into the same folder again skips the drives already ok. Needs Ray: "
+        "pip install \"neuroslam[scale]\".")
+    sweep.add_argument("--worlds", nargs="+", required=True, metavar="WORLD",
+                       help="built-in names, gen:SEED, gen:A-B ranges, MJCF paths (spaces or commas)")
+    sweep.add_argument("--seeds", type=_positive_int, default=1, help="sensor-noise seeds 0..N-1 (default: 1)")
+    sweep.add_argument("--laps", type=_positive_int, default=2, help="laps per drive (default: 2)")
+    sweep.add_argument("--max-frames", type=_positive_int, help="stop each drive after this many frames")
+    sweep.add_argument("--grid", nargs="+", default=[], metavar="FIELD=V1,V2",
+                       help="configuration fields to vary over the sim preset, every combination "
+                       "(e.g. local_view.threshold=0.05,0.07 experience_map.loop_closure=code,confirmed)")
+    sweep.add_argument("--workers", type=_positive_int, help="CPUs of the local Ray instance (default: all)")
+    sweep.add_argument("--address", help="address of a running Ray cluster (default: start one locally)")
+    sweep.add_argument("--out", type=Path, required=True, help="output folder (results.csv, drives/)")
 
     commands.add_parser("worlds", help="list the built-in worlds with their levels and routes",
                         description="List the built-in worlds with their floor levels and routes.")
@@ -649,6 +670,25 @@ def _compare_maps(args: argparse.Namespace) -> int:
     return 0
 
 
+def _sweep(args: argparse.Namespace) -> int:
+    """Drives as Ray tasks (:mod:`neuroslam.sweep`); exit code 1 if any drive failed."""
+    from .sweep import expand_worlds, parse_grid, run_sweep, summary
+
+    worlds, grid = expand_worlds(args.worlds), parse_grid(args.grid)
+    rows, failed = run_sweep(worlds, args.seeds, grid, args.out, laps=args.laps, max_frames=args.max_frames,
+                             workers=args.workers, address=args.address)
+    grid_fields = sorted({field for setting in grid for field, _ in setting})
+    table = summary(rows, grid_fields)
+    widths = [max(len(str(line[k])) for line in table) for k in range(len(table[0]))]
+    for line in table:
+        print("  ".join(str(cell).ljust(width) for cell, width in zip(line, widths, strict=True)))
+    for row in rows:
+        if row.get("status") == "failed":
+            print(f"failed: {row['world']} seed {row['seed']}: {row['error']}")
+    print(f"results: {args.out / 'results.csv'}")
+    return 1 if failed else 0
+
+
 def _worlds(_: argparse.Namespace) -> int:
     import sim
 
@@ -665,7 +705,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``neuroslam`` console script; returns the exit code."""
     args = _parser().parse_args(argv)
     handlers = {"drive": _drive, "run": _run, "record": _record, "calibrate": _calibrate, "worlds": _worlds,
-                "compare-maps": _compare_maps}
+                "compare-maps": _compare_maps, "sweep": _sweep}
     try:
         return handlers[args.command](args)
     except KeyboardInterrupt:

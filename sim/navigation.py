@@ -1,0 +1,139 @@
+"""The drivable surface of a world, found from its geometry: a graph for shortest paths across levels.
+
+Nothing is written by hand per world. Over a grid of cells (``cell`` metres) covering the world, rays
+cast straight down from just above each floor level find every surface under each cell (floors, ramps,
+decks; a cell under a deck has one surface per level). A surface is a node when the robot fits there:
+no geometry within ``clearance`` metres of it horizontally, in eight directions, at 0.3 m above the
+surface (walls, pillars, parked cars), and none within ``headroom`` metres above it. Nodes of
+neighbouring cells (eight-connected) are joined when their heights differ by at most ``step_height``
+(a ramp's slope; a drop-off at a deck's edge is not joined). The largest connected part is the drivable
+area; ramps join its levels. Edge weights are the 3-D distances, so shortest paths are ramp-aware.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components, dijkstra
+from scipy.spatial import cKDTree
+
+from .world import World
+
+__all__ = ["DrivableGraph"]
+
+_NEIGHBOURS = [(1, 0), (0, 1), (1, 1), (1, -1)]  # half of the eight: each edge once
+_DIRECTIONS = [(math.cos(a), math.sin(a), 0.0) for a in np.linspace(0, 2 * math.pi, 8, endpoint=False)]
+
+
+def _static_model(world: World) -> mujoco.MjModel:
+    if world.xml is not None:
+        return mujoco.MjModel.from_xml_string(world.xml)
+    return mujoco.MjModel.from_xml_path(str(world.path))
+
+
+class DrivableGraph:
+    """The drivable surface of ``world`` as a graph (see the module's description).
+
+    Args:
+        world: a loaded world (:func:`sim.world.load_world`).
+        cell: grid spacing, m. clearance: free radius around the robot's centre, m.
+        step_height: largest height difference between neighbouring cells, m. headroom: free height, m.
+
+    Attributes:
+        points: (N, 3) node positions on the surface, m. adjacency: sparse (N, N) edge lengths, m.
+        levels: (N,) the level index of each node's height (ramps: the nearest level).
+    """
+
+    def __init__(self, world: World, *, cell: float = 0.5, clearance: float = 0.45, step_height: float = 0.15,
+                 headroom: float = 0.9):
+        model = _static_model(world)
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        reach = data.geom_xpos[:, :2]
+        radius = model.geom_rbound[:, None]
+        low, high = (reach - radius).min(axis=0), (reach + radius).max(axis=0)
+        xs = np.arange(low[0] + cell / 2, high[0], cell)
+        ys = np.arange(low[1] + cell / 2, high[1], cell)
+        geom = np.zeros(1, dtype=np.int32)
+        down, up = np.array([0.0, 0.0, -1.0]), np.array([0.0, 0.0, 1.0])
+
+        def ray(start, direction) -> float:
+            return mujoco.mj_ray(model, data, np.asarray(start, dtype=float), np.asarray(direction, dtype=float),
+                                 None, 1, -1, geom)
+
+        nodes: dict[tuple[int, int], list[float]] = {}
+        for i, x in enumerate(xs):
+            for j, y in enumerate(ys):
+                heights: list[float] = []
+                for level in world.levels:
+                    start = level + 1.2
+                    distance = ray((x, y, start), down)
+                    if distance < 0:
+                        continue
+                    height = start - distance
+                    if all(abs(height - other) > 0.05 for other in heights):
+                        heights.append(height)
+                free = []
+                for height in heights:
+                    above = ray((x, y, height + 0.02), up)
+                    if 0 <= above < headroom:
+                        continue
+                    centre = (x, y, height + 0.3)
+                    if any(0 <= ray(centre, direction) < clearance for direction in _DIRECTIONS):
+                        continue
+                    free.append(height)
+                if free:
+                    nodes[(i, j)] = free
+        index: dict[tuple[int, int, int], int] = {}
+        points = []
+        for (i, j), heights in nodes.items():
+            for k, height in enumerate(heights):
+                index[(i, j, k)] = len(points)
+                points.append((xs[i], ys[j], height))
+        points = np.array(points, dtype=float).reshape(-1, 3)
+        rows, columns = [], []
+        for (i, j), heights in nodes.items():
+            for di, dj in _NEIGHBOURS:
+                others = nodes.get((i + di, j + dj))
+                if not others:
+                    continue
+                for k, height in enumerate(heights):
+                    for m, other in enumerate(others):
+                        if abs(height - other) <= step_height * (math.sqrt(2) if di and dj else 1.0):
+                            rows.append(index[(i, j, k)])
+                            columns.append(index[(i + di, j + dj, m)])
+        rows, columns = np.array(rows, dtype=int), np.array(columns, dtype=int)
+        weights = np.linalg.norm(points[rows] - points[columns], axis=1)
+        adjacency = coo_matrix((weights, (rows, columns)), shape=(len(points),) * 2).tocsr()
+        adjacency = adjacency + adjacency.T
+        _, labels = connected_components(adjacency, directed=False)
+        largest = np.bincount(labels).argmax() if len(points) else 0
+        keep = np.flatnonzero(labels == largest)
+        self.points = points[keep]
+        self.adjacency = adjacency[keep][:, keep].tocsr()
+        self.levels = np.asarray(world.level_of(self.points[:, 2]))
+        self.cell = cell
+        self._tree = cKDTree(self.points)
+
+    def nearest(self, position: np.ndarray) -> int:
+        """The node nearest to ``position`` (x, y, z; heights count, so the right level is found)."""
+        return int(self._tree.query(np.asarray(position, dtype=float)[:3])[1])
+
+    def distances_from(self, node: int) -> np.ndarray:
+        """Shortest drivable distance from ``node`` to every node, m (inf where unreachable)."""
+        return dijkstra(self.adjacency, directed=False, indices=node)
+
+    def shortest_path(self, start: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, float]:
+        """The drivable shortest path from ``start`` to ``goal`` (positions): (K, 3) points and its length, m."""
+        first, last = self.nearest(start), self.nearest(goal)
+        distances, predecessors = dijkstra(self.adjacency, directed=False, indices=first,
+                                           return_predecessors=True)
+        if not np.isfinite(distances[last]):
+            return np.zeros((0, 3)), math.inf
+        path = [last]
+        while path[-1] != first:
+            path.append(int(predecessors[path[-1]]))
+        return self.points[path[::-1]], float(distances[last])

@@ -187,6 +187,27 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--address", help="address of a running Ray cluster (default: start one locally)")
     sweep.add_argument("--out", type=Path, required=True, help="output folder (results.csv, drives/)")
 
+    nav = commands.add_parser(
+        "nav", help="point-goal navigation episodes with an agent and a pose source",
+        description="Evaluate navigation on NeuroSLAM/PointNav-v0: N seeded episodes per world (the same start "
+        "and goal pairs for every setting), an agent (random; planner: a ramp-aware shortest path on the "
+        "drivable graph derived from the world's geometry, followed with the scripted drives' controller; or "
+        "module:Class, see neuroslam.nav) localising itself with a pose source (groundtruth, odometry: the "
+        "wheel encoders, slam: NeuroSLAM on the camera, with --load-map a map of an earlier drive of the same "
+        "world). Writes OUT/episodes.csv (world, seed, agent, pose, success, spl, path_length_m, geodesic_m, "
+        "steps, collisions, final_localisation_error_m) and OUT/summary.json.")
+    nav.add_argument("worlds", nargs="+", metavar="WORLD", help="built-in names, gen:SEED or MJCF paths")
+    nav.add_argument("--agent", default="planner", help="random, planner or module:Class (default: planner)")
+    nav.add_argument("--pose", choices=["groundtruth", "odometry", "slam"], default="groundtruth",
+                     help="how the agent localises itself (default: groundtruth)")
+    nav.add_argument("--load-map", type=Path, help="with --pose slam: a map (or run folder) of an earlier drive")
+    nav.add_argument("--goal-sensor", choices=["gps", "start"], default="gps",
+                     help="the goal relative to the robot every step (gps) or only at reset (start)")
+    nav.add_argument("--episodes", type=_positive_int, default=20, help="episodes per world (default: 20)")
+    nav.add_argument("--seed", type=int, default=0, help="first episode's seed (default: 0)")
+    nav.add_argument("--max-steps", type=_positive_int, default=1500, help="steps per episode (default: 1500)")
+    nav.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
+
     commands.add_parser("worlds", help="list the built-in worlds with their levels and routes",
                         description="List the built-in worlds with their floor levels and routes.")
     return parser
@@ -689,6 +710,39 @@ def _sweep(args: argparse.Namespace) -> int:
     return 1 if failed else 0
 
 
+def _nav(args: argparse.Namespace) -> int:
+    """Navigation episodes (:mod:`neuroslam.nav`)."""
+    from tqdm import tqdm
+
+    import sim
+    from sim.navigation import DrivableGraph
+
+    from .errors import InvalidParameterError
+    from .nav import load_agent, run_episode, write_episodes, write_summary
+
+    load_agent(args.agent)  # an unknown agent fails before any episode
+    if args.load_map is not None and args.pose != "slam":
+        raise InvalidParameterError("--load-map", str(args.load_map), "is used with --pose slam only")
+    out = args.out or Path("runs") / f"nav-{time.strftime('%Y%m%d-%H%M%S')}"
+    out.mkdir(parents=True, exist_ok=True)
+    episodes = []
+    with tqdm(total=len(args.worlds) * args.episodes, unit="episode", desc="nav") as bar:
+        for name in args.worlds:
+            graph = DrivableGraph(sim.load_world(name))
+            for k in range(args.episodes):
+                episodes.append(run_episode(name, args.seed + k, args.agent, args.pose, graph=graph,
+                                            goal_sensor=args.goal_sensor, load_map=args.load_map,
+                                            max_steps=args.max_steps))
+                bar.update()
+    write_episodes(out / "episodes.csv", episodes)
+    summary = write_summary(out / "summary.json", episodes)
+    for setting in summary["settings"]:
+        print(f"{setting['world']:<10} {setting['agent']:<8} {setting['pose']:<12} {setting['episodes']:>3} episodes: "
+              f"success {setting['success_rate']:.2f}, SPL {setting['spl']:.2f}")
+    print(f"output: {out}")
+    return 0
+
+
 def _worlds(_: argparse.Namespace) -> int:
     import sim
 
@@ -705,7 +759,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``neuroslam`` console script; returns the exit code."""
     args = _parser().parse_args(argv)
     handlers = {"drive": _drive, "run": _run, "record": _record, "calibrate": _calibrate, "worlds": _worlds,
-                "compare-maps": _compare_maps, "sweep": _sweep}
+                "compare-maps": _compare_maps, "sweep": _sweep, "nav": _nav}
     try:
         return handlers[args.command](args)
     except KeyboardInterrupt:

@@ -257,8 +257,10 @@ class DriveEnv(gym.Env):
 class PointNavEnv(DriveEnv):
     """## Description
     Point-goal navigation across levels: drive to a goal that may be on another floor, reached over the
-    ramps. Like Habitat's PointGoal with GPS+compass, the goal's position relative to the robot is
-    observed every step.
+    ramps. With ``goal_sensor="gps"`` (the default), like Habitat's PointGoal with GPS+compass, the goal's
+    position relative to the robot is observed every step; with ``goal_sensor="start"`` (Habitat's harder
+    setting since 2020) only in the observation ``reset`` returns, and zeros afterwards, so the agent must
+    track itself.
 
     ## Action Space
     As ``NeuroSLAM/Drive-v0``: (forward speed m/s, yaw rate rad/s), clipped to the robot's range.
@@ -288,7 +290,8 @@ class PointNavEnv(DriveEnv):
     max(path driven, geodesic start distance)), ``path_length`` (m driven).
 
     ## Arguments
-    As ``NeuroSLAM/Drive-v0``, plus ``success_distance``, ``min_goal_distance`` and ``max_goal_distance`` (m).
+    As ``NeuroSLAM/Drive-v0``, plus ``success_distance``, ``min_goal_distance`` and ``max_goal_distance`` (m),
+    and ``goal_sensor`` (``"gps"`` or ``"start"``).
 
     ## Version History
     * v0: initial version.
@@ -301,8 +304,11 @@ class PointNavEnv(DriveEnv):
         success_distance: float = 1.0,
         min_goal_distance: float = 5.0,
         max_goal_distance: float = 60.0,
+        goal_sensor: str = "gps",
         **kwargs: Any,
     ):
+        if goal_sensor not in ("gps", "start"):
+            raise InvalidParameterError("goal_sensor", goal_sensor, "must be 'gps' or 'start'")
         if not 0 < success_distance < min_goal_distance < max_goal_distance:
             raise InvalidParameterError(
                 "goal distances", (success_distance, min_goal_distance, max_goal_distance),
@@ -310,6 +316,8 @@ class PointNavEnv(DriveEnv):
             )
         super().__init__(world, **kwargs)
         self.success_distance = success_distance
+        self.goal_sensor = goal_sensor
+        self._goal_visible = True
         self.min_goal_distance = min_goal_distance
         self.max_goal_distance = max_goal_distance
         self.graph = RouteGraph(self.world)
@@ -356,6 +364,7 @@ class PointNavEnv(DriveEnv):
         self._path_length = 0.0
         self._last_position = position
         self._success = False
+        self._goal_visible = True  # the observation reset returns always shows the goal
 
     def _reward_and_termination(self, truth) -> tuple[float, bool]:
         position = truth.position
@@ -374,6 +383,9 @@ class PointNavEnv(DriveEnv):
         bearing = math.atan2(offset[1], offset[0]) - truth.yaw
         bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
         observation["goal"] = np.array([np.linalg.norm(offset), bearing, offset[2]], dtype=np.float32)
+        if not self._goal_visible:
+            observation["goal"][:] = 0.0
+        self._goal_visible = self.goal_sensor == "gps"
         return observation
 
     def _info(self) -> dict[str, Any]:

@@ -7,7 +7,9 @@ no geometry within ``clearance`` metres of it horizontally, in eight directions,
 surface (walls, pillars, parked cars), and none within ``headroom`` metres above it. Nodes of
 neighbouring cells (eight-connected) are joined when their heights differ by at most ``step_height``
 (a ramp's slope; a drop-off at a deck's edge is not joined). The largest connected part is the drivable
-area; ramps join its levels. Edge weights are the 3-D distances, so shortest paths are ramp-aware.
+area; ramps join its levels. Edge weights are the 3-D distances, so shortest paths are ramp-aware;
+a planned path (:meth:`DrivableGraph.shortest_path`) also keeps away from obstacles where it can: each
+edge costs its length times 1 + 2 × (how far its nodes' free radius falls short of ``comfort``) / comfort.
 """
 
 from __future__ import annotations
@@ -45,10 +47,11 @@ class DrivableGraph:
     Attributes:
         points: (N, 3) node positions on the surface, m. adjacency: sparse (N, N) edge lengths, m.
         levels: (N,) the level index of each node's height (ramps: the nearest level).
+        free_radius: (N,) distance to the nearest obstacle around each node (at most ``comfort``), m.
     """
 
     def __init__(self, world: World, *, cell: float = 0.5, clearance: float = 0.45, step_height: float = 0.15,
-                 headroom: float = 0.9):
+                 headroom: float = 0.9, comfort: float = 1.5):
         model = _static_model(world)
         data = mujoco.MjData(model)
         mujoco.mj_forward(model, data)
@@ -65,6 +68,7 @@ class DrivableGraph:
                                  None, 1, -1, geom)
 
         nodes: dict[tuple[int, int], list[float]] = {}
+        free_radius: dict[tuple[int, int, float], float] = {}
         for i, x in enumerate(xs):
             for j, y in enumerate(ys):
                 heights: list[float] = []
@@ -82,18 +86,23 @@ class DrivableGraph:
                     if 0 <= above < headroom:
                         continue
                     centre = (x, y, height + 0.3)
-                    if any(0 <= ray(centre, direction) < clearance for direction in _DIRECTIONS):
+                    distances = [ray(centre, direction) for direction in _DIRECTIONS]
+                    radius = min([d for d in distances if d >= 0] or [comfort])
+                    if radius < clearance:
                         continue
                     free.append(height)
+                    free_radius[(i, j, height)] = min(radius, comfort)
                 if free:
                     nodes[(i, j)] = free
         index: dict[tuple[int, int, int], int] = {}
-        points = []
+        points, radii = [], []
         for (i, j), heights in nodes.items():
             for k, height in enumerate(heights):
                 index[(i, j, k)] = len(points)
                 points.append((xs[i], ys[j], height))
+                radii.append(free_radius[(i, j, height)])
         points = np.array(points, dtype=float).reshape(-1, 3)
+        radii = np.array(radii, dtype=float)
         rows, columns = [], []
         for (i, j), heights in nodes.items():
             for di, dj in _NEIGHBOURS:
@@ -107,13 +116,18 @@ class DrivableGraph:
                             columns.append(index[(i + di, j + dj, m)])
         rows, columns = np.array(rows, dtype=int), np.array(columns, dtype=int)
         weights = np.linalg.norm(points[rows] - points[columns], axis=1)
+        shortfall = comfort - (radii[rows] + radii[columns]) / 2
+        costs = weights * (1.0 + 2.0 * np.maximum(shortfall, 0.0) / comfort)
         adjacency = coo_matrix((weights, (rows, columns)), shape=(len(points),) * 2).tocsr()
         adjacency = adjacency + adjacency.T
         _, labels = connected_components(adjacency, directed=False)
         largest = np.bincount(labels).argmax() if len(points) else 0
         keep = np.flatnonzero(labels == largest)
         self.points = points[keep]
+        self.free_radius = radii[keep]
         self.adjacency = adjacency[keep][:, keep].tocsr()
+        cost_matrix = coo_matrix((costs, (rows, columns)), shape=(len(points),) * 2).tocsr()
+        self._costs = (cost_matrix + cost_matrix.T)[keep][:, keep].tocsr()
         self.levels = np.asarray(world.level_of(self.points[:, 2]))
         self.cell = cell
         self._tree = cKDTree(self.points)
@@ -126,14 +140,19 @@ class DrivableGraph:
         """Shortest drivable distance from ``node`` to every node, m (inf where unreachable)."""
         return dijkstra(self.adjacency, directed=False, indices=node)
 
+    def geodesic(self, start: np.ndarray, goal: np.ndarray) -> float:
+        """The shortest drivable distance from ``start`` to ``goal`` (positions), m (inf if unreachable)."""
+        return float(self.distances_from(self.nearest(start))[self.nearest(goal)])
+
     def shortest_path(self, start: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, float]:
-        """The drivable shortest path from ``start`` to ``goal`` (positions): (K, 3) points and its length, m."""
+        """A path to drive from ``start`` to ``goal`` (positions): the cheapest with the clearance costs (near
+        the shortest, away from obstacles where it can): (K, 3) points and its length, m."""
         first, last = self.nearest(start), self.nearest(goal)
-        distances, predecessors = dijkstra(self.adjacency, directed=False, indices=first,
-                                           return_predecessors=True)
-        if not np.isfinite(distances[last]):
+        costs, predecessors = dijkstra(self._costs, directed=False, indices=first, return_predecessors=True)
+        if not np.isfinite(costs[last]):
             return np.zeros((0, 3)), math.inf
         path = [last]
         while path[-1] != first:
             path.append(int(predecessors[path[-1]]))
-        return self.points[path[::-1]], float(distances[last])
+        points = self.points[path[::-1]]
+        return points, float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum())

@@ -206,6 +206,8 @@ def _parser() -> argparse.ArgumentParser:
     nav.add_argument("--episodes", type=_positive_int, default=20, help="episodes per world (default: 20)")
     nav.add_argument("--seed", type=int, default=0, help="first episode's seed (default: 0)")
     nav.add_argument("--max-steps", type=_positive_int, default=1500, help="steps per episode (default: 1500)")
+    nav.add_argument("--num-envs", type=_positive_int, default=1,
+                     help="run episodes in a gymnasium async vector env of this many copies (spawned processes)")
     nav.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
 
     commands.add_parser("worlds", help="list the built-in worlds with their levels and routes",
@@ -718,7 +720,7 @@ def _nav(args: argparse.Namespace) -> int:
     from sim.navigation import DrivableGraph
 
     from .errors import InvalidParameterError
-    from .nav import load_agent, run_episode, write_episodes, write_summary
+    from .nav import load_agent, run_episode, run_episodes_vector, write_episodes, write_summary
 
     load_agent(args.agent)  # an unknown agent fails before any episode
     if args.load_map is not None and args.pose != "slam":
@@ -728,9 +730,16 @@ def _nav(args: argparse.Namespace) -> int:
     episodes = []
     with tqdm(total=len(args.worlds) * args.episodes, unit="episode", desc="nav") as bar:
         for name in args.worlds:
-            graph = DrivableGraph(sim.load_world(name))
-            for k in range(args.episodes):
-                episodes.append(run_episode(name, args.seed + k, args.agent, args.pose, graph=graph,
+            world = sim.load_world(name)
+            graph = DrivableGraph(world)
+            seeds = [args.seed + k for k in range(args.episodes)]
+            if args.num_envs > 1:
+                episodes += run_episodes_vector(name, seeds, args.agent, args.pose, graph=graph, world=world,
+                                                num_envs=args.num_envs, goal_sensor=args.goal_sensor,
+                                                load_map=args.load_map, max_steps=args.max_steps, progress=bar)
+                continue
+            for seed in seeds:
+                episodes.append(run_episode(name, seed, args.agent, args.pose, graph=graph,
                                             goal_sensor=args.goal_sensor, load_map=args.load_map,
                                             max_steps=args.max_steps))
                 bar.update()

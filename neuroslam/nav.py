@@ -122,56 +122,143 @@ def _relative(origin: np.ndarray, pose: np.ndarray) -> np.ndarray:
                      math.remainder(pose[3] - origin[3], 2 * math.pi)])
 
 
-def run_episode(world_name: str, seed: int, agent_name: str, pose_source: str, *, graph, goal_sensor: str = "gps",
-                load_map: Path | None = None, max_steps: int = 1500) -> Episode:
-    """One seeded episode of ``NeuroSLAM/PointNav-v0``; its scores."""
+class EpisodeRunner:
+    """One episode's agent and pose source, fed by whoever steps the environment (a single environment or
+    one slot of a vector environment): :meth:`begin` with the reset's observation and info, then
+    :meth:`act` and :meth:`observe` each step, and :meth:`finish` with the last info."""
+
+    def __init__(self, world_name: str, seed: int, agent_name: str, pose_source: str, *, graph, world,
+                 load_map: Path | None = None):
+        self.world_name, self.seed, self.agent_name, self.pose_source = world_name, seed, agent_name, pose_source
+        self.graph = graph
+        self.agent = load_agent(agent_name)(world, graph, seed)
+        self.load_map = load_map
+        self.steps = 0
+
+    def begin(self, observation: dict, info: dict) -> None:
+        from .slam import NeuroSLAM
+
+        self.start = np.array(info["pose"], dtype=float)
+        self.goal = np.array(info["goal"], dtype=float)
+        self.agent.reset(self.start, self.goal)
+        self.pose = self.start
+        self.odometry_origin = np.array(info["odometry_pose"], dtype=float)
+        self.slam = None
+        if self.pose_source == "slam":
+            self.slam = NeuroSLAM.load(self.load_map) if self.load_map is not None else NeuroSLAM("sim")
+            if self.load_map is not None:
+                self.slam.begin_session(start="known")
+            self.slam.step(observation["image"], float(info["time"]))
+            self.slam_origin = self.slam.last.pose.copy()
+
+    def act(self, observation: dict) -> np.ndarray:
+        return np.asarray(self.agent.act(observation, self.pose), dtype=np.float32)
+
+    def observe(self, observation: dict, info: dict) -> None:
+        self.steps += 1
+        if self.pose_source == "groundtruth":
+            self.pose = np.array(info["pose"], dtype=float)
+        elif self.pose_source == "odometry":  # the wheel encoders' (x, y, yaw) since the start
+            origin, (x, y, yaw) = self.odometry_origin, np.array(info["odometry_pose"], dtype=float)
+            relative = _relative(np.array([origin[0], origin[1], 0.0, origin[2]]), np.array([x, y, 0.0, yaw]))
+            self.pose = _compose(self.start, relative)  # the wheels measure no height: the start's is kept
+        else:
+            estimate = self.slam.step(observation["image"], float(info["time"]))
+            self.pose = _compose(self.start, _relative(self.slam_origin, estimate.pose))
+
+    def finish(self, info: dict) -> Episode:
+        truth = np.array(info["pose"], dtype=float)
+        geodesic = self.graph.geodesic(self.start[:3], self.goal)
+        path_length, success = float(info["path_length"]), bool(info["success"])
+        return Episode(self.world_name, self.seed, self.agent_name, self.pose_source, success,
+                       float(success) * geodesic / max(path_length, geodesic, 1e-9), path_length, float(geodesic),
+                       self.steps, int(info["collisions"]), float(np.linalg.norm(self.pose[:3] - truth[:3])))
+
+
+def _environment(world_name: str, goal_sensor: str, max_steps: int):
     import gymnasium as gym
 
     import sim  # noqa: F401 (registers NeuroSLAM/PointNav-v0)
 
-    from .slam import NeuroSLAM
+    return gym.make("NeuroSLAM/PointNav-v0", world=world_name, goal_sensor=goal_sensor, max_episode_steps=max_steps)
 
-    env = gym.make("NeuroSLAM/PointNav-v0", world=world_name, goal_sensor=goal_sensor,
-                   max_episode_steps=max_steps)
+
+def run_episode(world_name: str, seed: int, agent_name: str, pose_source: str, *, graph, goal_sensor: str = "gps",
+                load_map: Path | None = None, max_steps: int = 1500) -> Episode:
+    """One seeded episode of ``NeuroSLAM/PointNav-v0``; its scores."""
+    env = _environment(world_name, goal_sensor, max_steps)
     try:
         observation, info = env.reset(seed=seed)
-        start, goal = np.array(info["pose"], dtype=float), np.array(info["goal"], dtype=float)
-        agent = load_agent(agent_name)(env.unwrapped.world, graph, seed)
-        agent.reset(start, goal)
-        slam = None
-        if pose_source == "slam":
-            slam = NeuroSLAM.load(load_map) if load_map is not None else NeuroSLAM("sim")
-            if load_map is not None:
-                slam.begin_session(start="known")
-            slam.step(observation["image"], float(info["time"]))
-            slam_origin = slam.last.pose.copy()
-        odometry_origin = np.array(info["odometry_pose"], dtype=float)
-        pose = start
-        steps, done = 0, False
+        runner = EpisodeRunner(world_name, seed, agent_name, pose_source, graph=graph, world=env.unwrapped.world,
+                               load_map=load_map)
+        runner.begin(observation, info)
+        done = False
         while not done:
-            action = agent.act(observation, pose)
-            observation, _, terminated, truncated, info = env.step(action)
-            steps += 1
+            observation, _, terminated, truncated, info = env.step(runner.act(observation))
+            runner.observe(observation, info)
             done = terminated or truncated
-            if pose_source == "groundtruth":
-                pose = np.array(info["pose"], dtype=float)
-            elif pose_source == "odometry":  # the wheel encoders' (x, y, yaw) since the start
-                x, y, yaw = np.array(info["odometry_pose"], dtype=float)
-                relative = _relative(np.array([odometry_origin[0], odometry_origin[1], 0.0, odometry_origin[2]]),
-                                     np.array([x, y, 0.0, yaw]))
-                pose = _compose(start, relative)  # the wheels measure no height: the start's is kept
-            else:
-                estimate = slam.step(observation["image"], float(info["time"]))
-                pose = _compose(start, _relative(slam_origin, estimate.pose))
-        truth = np.array(info["pose"], dtype=float)
-        geodesic = graph.geodesic(start[:3], goal)
-        path_length = float(info["path_length"])
-        success = bool(info["success"])
-        return Episode(world_name, seed, agent_name, pose_source, success,
-                       float(success) * geodesic / max(path_length, geodesic, 1e-9), path_length, float(geodesic),
-                       steps, int(info["collisions"]), float(np.linalg.norm(pose[:3] - truth[:3])))
+        return runner.finish(info)
     finally:
         env.close()
+
+
+def _slot(batch: dict, index: int) -> dict:
+    """Environment ``index``'s entries of a vector environment's observation or info dict."""
+    return {key: value[index] for key, value in batch.items() if not key.startswith("_")}
+
+
+def run_episodes_vector(world_name: str, seeds: list[int], agent_name: str, pose_source: str, *, graph, world,
+                        num_envs: int, goal_sensor: str = "gps", load_map: Path | None = None,
+                        max_steps: int = 1500, progress=None) -> list[Episode]:
+    """The episodes of ``seeds`` on a gymnasium async vector environment of ``num_envs`` copies (spawned
+    processes; automatic resets off, so each slot is reset with the next episode's own seed and every
+    setting sees the same pairs). Returns them in the order of ``seeds``."""
+    import functools
+
+    import gymnasium as gym
+
+    count = min(num_envs, len(seeds))
+    envs = gym.vector.AsyncVectorEnv([functools.partial(_environment, world_name, goal_sensor, max_steps)] * count,
+                                     context="spawn", autoreset_mode=gym.vector.AutoresetMode.DISABLED)
+    pending = list(seeds)
+    runners: list[EpisodeRunner | None] = [None] * count
+    finished: dict[int, Episode] = {}
+    try:
+        first = [pending.pop(0) for _ in range(count)]
+        observations, infos = envs.reset(seed=first)
+        for index, seed in enumerate(first):
+            runners[index] = EpisodeRunner(world_name, seed, agent_name, pose_source, graph=graph, world=world,
+                                           load_map=load_map)
+            runners[index].begin(_slot(observations, index), _slot(infos, index))
+        while any(runner is not None for runner in runners):
+            actions = np.zeros((count, 2), dtype=np.float32)
+            for index, runner in enumerate(runners):
+                if runner is not None:
+                    actions[index] = runner.act(_slot(observations, index))
+            observations, _, terminated, truncated, infos = envs.step(actions)
+            reset_seeds: list[int | None] = [None] * count
+            for index, runner in enumerate(runners):
+                if runner is None:
+                    continue
+                runner.observe(_slot(observations, index), _slot(infos, index))
+                if terminated[index] or truncated[index]:
+                    finished[runner.seed] = runner.finish(_slot(infos, index))
+                    runners[index] = None
+                    if progress is not None:
+                        progress.update()
+                    if pending:
+                        reset_seeds[index] = pending.pop(0)
+            if any(seed is not None for seed in reset_seeds):
+                mask = np.array([seed is not None for seed in reset_seeds])
+                observations, infos = envs.reset(seed=reset_seeds, options={"reset_mask": mask})
+                for index, seed in enumerate(reset_seeds):
+                    if seed is not None:
+                        runners[index] = EpisodeRunner(world_name, seed, agent_name, pose_source, graph=graph,
+                                                       world=world, load_map=load_map)
+                        runners[index].begin(_slot(observations, index), _slot(infos, index))
+    finally:
+        envs.close()
+    return [finished[seed] for seed in seeds]
 
 
 def write_episodes(path: Path, episodes: list[Episode]) -> None:

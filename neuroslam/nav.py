@@ -149,7 +149,7 @@ class EpisodeRunner:
             if self.load_map is not None:
                 self.slam.begin_session(start="known")
             self.slam.step(observation["image"], float(info["time"]))
-            self.slam_origin = self.slam.last.pose.copy()
+            self.slam_anchor, self.slam_origin = self.start, self.slam.last.pose.copy()
 
     def act(self, observation: dict) -> np.ndarray:
         return np.asarray(self.agent.act(observation, self.pose), dtype=np.float32)
@@ -164,7 +164,9 @@ class EpisodeRunner:
             self.pose = _compose(self.start, relative)  # the wheels measure no height: the start's is kept
         else:
             estimate = self.slam.step(observation["image"], float(info["time"]))
-            self.pose = _compose(self.start, _relative(self.slam_origin, estimate.pose))
+            if estimate.merged:  # the estimate moved into the loaded map's frame: keep the pose continuous
+                self.slam_anchor, self.slam_origin = self.pose, estimate.pose.copy()
+            self.pose = _compose(self.slam_anchor, _relative(self.slam_origin, estimate.pose))
 
     def finish(self, info: dict) -> Episode:
         truth = np.array(info["pose"], dtype=float)

@@ -458,7 +458,8 @@ class NeuroSLAM:
                 without a search radius). ``"known"`` (scenario i): the robot starts inside the map; the
                 first frame's view, if it matches a stored template, places the robot at that template's
                 (latest) experience and resets both packets to its codes, and mapping continues there. If
-                the first view matches nothing, the session goes on as an unknown start.
+                the first view matches nothing, or was seen at places more than ``2 ×
+                confirmation_tolerance`` apart, the session goes on as an unknown start.
         """
         if start not in ("unknown", "known"):
             raise InvalidParameterError("start", start, "must be 'unknown' or 'known'")
@@ -507,11 +508,20 @@ class NeuroSLAM:
         themap.absorb(other.experience_map, template_offset=first, component_offset=component_offset)
 
     def _start_in_map(self, view) -> None:
-        """Scenario i: put the robot at the latest experience of the first frame's view, packets reset there."""
+        """Scenario i: put the robot at the latest experience of the first frame's view, packets reset there.
+
+        A view whose experiences lie more than ``2 × confirmation_tolerance`` apart (seen along a lane, or at
+        several places) does not say where the robot is: then, as for a new view, the session goes on as
+        an unknown start and merges once a run of views confirms the place."""
         themap = self.experience_map
         experiences = themap.experiences_of(view.template_id) if not view.new else np.zeros(0, dtype=np.int64)
         if len(experiences) == 0:
             logger.warning("known start: the first view matches no stored template; mapping as an unknown start")
+            return
+        spread = np.linalg.norm(np.ptp(themap.poses[experiences, :3], axis=0))
+        if spread > 2 * self.config.experience_map.confirmation_tolerance:
+            logger.warning("known start: the first view was seen at places %.1f m apart; mapping as an unknown "
+                           "start until a run of views confirms the place", spread)
             return
         place = int(experiences[-1])
         themap.enter(place, np.array([0.0, 0.0, 0.0, view.relative_yaw]))

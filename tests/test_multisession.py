@@ -153,3 +153,18 @@ def test_session_arguments_are_checked(tmp_path):
         slam.begin_session(start="elsewhere")
     with pytest.raises(InvalidInputError, match="configuration"):
         slam.add_map(NeuroSLAM())  # built with the default configuration, not this one
+
+
+def test_a_known_start_on_a_view_seen_at_two_places_waits_for_confirmation(tmp_path):
+    """The first view was seen at two places of the loaded map: it cannot say where the robot is, so the
+    session maps on its own (an unknown start) until a run of views confirms the place, and then merges."""
+    slam = NeuroSLAM(SQUARE_CONFIG)
+    lap = square()
+    lap[25] = (0, *lap[25][1:])  # view 0 again, 25 m along the square
+    drive(slam, lap)
+    loaded = NeuroSLAM.load(slam.save(tmp_path / "twice.npz"))
+    assert np.ptp(loaded.experience_map.poses[loaded.experience_map.experiences_of(0), :2], axis=0).max() > 5
+    loaded.begin_session(start="known")
+    estimates, _ = drive(loaded, square(range(0, 24)))
+    assert estimates[0].experience_id >= 40  # not placed at either of view 0's experiences
+    assert sum(estimate.merged for estimate in estimates) == 1

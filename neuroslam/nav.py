@@ -7,8 +7,9 @@ until the episode ends, localising itself with its pose source:
 
 - ``groundtruth``: the simulator's pose (the upper bound);
 - ``odometry``: the wheel encoders integrated from the start;
-- ``slam``: NeuroSLAM's estimate on the camera frames (with a loaded map of an earlier drive of the same
-  world: the session starts in it, ``start="known"``), expressed in the world through the start pose.
+- ``slam``: NeuroSLAM's estimate from the wheels' speed and turn rate and the camera's views and height
+  rate (as ``neuroslam drive --odometry wheel``; with a loaded map of an earlier drive of the same world,
+  the session starts in it, ``start="known"``), expressed in the world through the start pose.
 
 The agent protocol (a user's agent plugs in as ``module:Class``)::
 
@@ -148,7 +149,8 @@ class EpisodeRunner:
             self.slam = NeuroSLAM.load(self.load_map) if self.load_map is not None else NeuroSLAM("sim")
             if self.load_map is not None:
                 self.slam.begin_session(start="known")
-            self.slam.step(observation["image"], float(info["time"]))
+            self.slam_time = float(info["time"])
+            self.slam.step(observation["image"], self.slam_time)
             self.slam_anchor, self.slam_origin = self.start, self.slam.last.pose.copy()
 
     def act(self, observation: dict) -> np.ndarray:
@@ -162,8 +164,15 @@ class EpisodeRunner:
             origin, (x, y, yaw) = self.odometry_origin, np.array(info["odometry_pose"], dtype=float)
             relative = _relative(np.array([origin[0], origin[1], 0.0, origin[2]]), np.array([x, y, 0.0, yaw]))
             self.pose = _compose(self.start, relative)  # the wheels measure no height: the start's is kept
-        else:
-            estimate = self.slam.step(observation["image"], float(info["time"]))
+        else:  # the wheels' speed and turn rate, the camera's views and height rate (as drive --odometry wheel)
+            from .vision.odometry import SelfMotion
+            from .vision.preprocessing import grey
+
+            time = float(info["time"])
+            climb = self.slam.visual_odometry.step(grey(observation["image"]), time - self.slam_time).climb_rate
+            speed, yaw_rate = (float(value) for value in observation["odometry"])
+            estimate = self.slam.step(observation["image"], time, odometry=SelfMotion(speed, yaw_rate, climb))
+            self.slam_time = time
             if estimate.merged:  # the estimate moved into the loaded map's frame: keep the pose continuous
                 self.slam_anchor, self.slam_origin = self.pose, estimate.pose.copy()
             self.pose = _compose(self.slam_anchor, _relative(self.slam_origin, estimate.pose))

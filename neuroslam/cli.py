@@ -193,9 +193,9 @@ def _parser() -> argparse.ArgumentParser:
         "and goal pairs for every setting), an agent (random; planner: a ramp-aware shortest path on the "
         "drivable graph derived from the world's geometry, followed with the scripted drives' controller; or "
         "module:Class, see neuroslam.nav) localising itself with a pose source (groundtruth, odometry: the "
-        "wheel encoders, slam: NeuroSLAM on the camera, with --load-map a map of an earlier drive of the same "
-        "world). Writes OUT/episodes.csv (world, seed, agent, pose, success, spl, path_length_m, geodesic_m, "
-        "steps, collisions, final_localisation_error_m) and OUT/summary.json.")
+        "wheel encoders, slam: NeuroSLAM on the wheels and the camera, with --load-map a map of an earlier "
+        "drive of the same world). Writes OUT/episodes.csv (world, seed, agent, pose, success, spl, "
+        "path_length_m, geodesic_m, steps, collisions, final_localisation_error_m) and OUT/summary.json.")
     nav.add_argument("worlds", nargs="+", metavar="WORLD", help="built-in names, gen:SEED or MJCF paths")
     nav.add_argument("--agent", default="planner", help="random, planner or module:Class (default: planner)")
     nav.add_argument("--pose", choices=["groundtruth", "odometry", "slam"], default="groundtruth",

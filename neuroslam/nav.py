@@ -37,6 +37,8 @@ from typing import Any
 import numpy as np
 
 from .errors import InvalidParameterError
+from .vision.odometry import SelfMotion
+from .vision.preprocessing import grey
 
 __all__ = ["PlannerAgent", "RandomAgent", "load_agent", "run_episode", "summarise"]
 
@@ -165,9 +167,6 @@ class EpisodeRunner:
             relative = _relative(np.array([origin[0], origin[1], 0.0, origin[2]]), np.array([x, y, 0.0, yaw]))
             self.pose = _compose(self.start, relative)  # the wheels measure no height: the start's is kept
         else:  # the wheels' speed and turn rate, the camera's views and height rate (as drive --odometry wheel)
-            from .vision.odometry import SelfMotion
-            from .vision.preprocessing import grey
-
             time = float(info["time"])
             climb = self.slam.visual_odometry.step(grey(observation["image"]), time - self.slam_time).climb_rate
             speed, yaw_rate = (float(value) for value in observation["odometry"])

@@ -226,7 +226,7 @@ class NeuroSLAM:
 
         update = themap.update(view.template_id, grid_code, direction_code, float(timestamp),
                                may_close_loop=may_close_loop)
-        if update.loop_closure or (not update.new_experience and self._old(float(timestamp))[update.experience_id]):
+        if update.loop_closure or (not update.new_experience and self._is_old(update.experience_id, float(timestamp))):
             self._since_closure = 0.0  # on an old experience: localised in the map
         self._frame_experiences.append(update.experience_id)
         self._frame_offsets.append(self.experience_map.relative)
@@ -437,6 +437,12 @@ class NeuroSLAM:
             height_radius=config.confirmation_tolerance + config.confirmation_climb_error * self._since_closure,
             tolerance=config.confirmation_tolerance, matches=config.confirmation_matches,
             climb_error=config.confirmation_climb_error)
+
+    def _is_old(self, experience: int, time: float) -> bool:
+        """One experience's entry of :meth:`_old` (without computing the others)."""
+        themap = self.experience_map
+        return bool(themap.creation_times[experience] < time - self.config.experience_map.confirmation_age
+                    or themap.sessions[experience] < themap.session)
 
     def _old(self, time: float) -> np.ndarray:
         """(N,) experiences made more than ``confirmation_age`` ago, or in an earlier session."""

@@ -28,8 +28,8 @@ def test_the_graph_keeps_clear_of_walls_pillars_and_parked_cars():
     ground = graph.points[graph.levels == 0]
     for obstacle in ([0.0, 0.0], [-5.6, 10.1]):  # pillars, 0.3 m half-width: 0.45 m of clearance from the centre
         assert np.linalg.norm(ground[:, :2] - obstacle, axis=1).min() >= 0.45
-    # the parked car at (-8.4, -7.9), about 4.5 x 1.8 m: no node on its footprint
-    assert not np.any((np.abs(ground[:, 0] + 8.4) < 2.2) & (np.abs(ground[:, 1] + 7.9) < 0.9))
+    # the parked car at (-8.4, -7.9), about 4.5 m long along y and 1.8 m wide: no node on its footprint
+    assert not np.any((np.abs(ground[:, 0] + 8.4) < 0.9) & (np.abs(ground[:, 1] + 7.9) < 2.2))
     assert np.abs(ground[:, 0]).max() <= 20 - 0.1 - 0.45 + 0.25  # inside the outer walls (half a cell)
     # the routes' waypoints are on the drivable area
     for point in world.route().waypoints:

@@ -492,13 +492,13 @@ def _run(args: argparse.Namespace) -> int:
 
     frames = list_frames(args.frames)
     groundtruth = read_groundtruth(args.groundtruth) if args.groundtruth is not None else None
+    if groundtruth is not None and len(groundtruth.positions) != len(frames):
+        raise DatasetError(f"ground truth {str(args.groundtruth)!r}: {len(groundtruth.positions)} rows for "
+                           f"{len(frames)} frames (one row per frame)")
     if args.max_frames is not None:
         frames = frames[: args.max_frames]
     check_frame_sizes(frames)
     if groundtruth is not None:
-        if len(groundtruth.positions) < len(frames):
-            raise DatasetError(f"ground truth {str(args.groundtruth)!r}: {len(groundtruth.positions)} rows for "
-                               f"{len(frames)} frames")
         groundtruth = type(groundtruth)(groundtruth.positions[: len(frames)], groundtruth.yaw[: len(frames)],
                                         None if groundtruth.times is None else groundtruth.times[: len(frames)])
     times = frame_times(len(frames), groundtruth, args.rate)
@@ -725,12 +725,17 @@ def _nav(args: argparse.Namespace) -> int:
     load_agent(args.agent)  # an unknown agent fails before any episode
     if args.load_map is not None and args.pose != "slam":
         raise InvalidParameterError("--load-map", str(args.load_map), "is used with --pose slam only")
+    worlds = {name: sim.load_world(name) for name in args.worlds}  # bad worlds and maps fail before any episode
+    if args.load_map is not None:
+        from .slam import NeuroSLAM
+
+        NeuroSLAM.load(args.load_map)
     out = args.out or Path("runs") / f"nav-{time.strftime('%Y%m%d-%H%M%S')}"
     out.mkdir(parents=True, exist_ok=True)
     episodes = []
     with tqdm(total=len(args.worlds) * args.episodes, unit="episode", desc="nav") as bar:
         for name in args.worlds:
-            world = sim.load_world(name)
+            world = worlds[name]
             graph = DrivableGraph(world)
             seeds = [args.seed + k for k in range(args.episodes)]
             if args.num_envs > 1:

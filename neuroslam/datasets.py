@@ -117,6 +117,14 @@ def read_groundtruth(path: str | Path) -> GroundTruth:
         table = np.array([[float(v) for v in row] for row in fields])
     except ValueError:
         raise DatasetError(f"ground truth {str(path)!r}: rows must be numbers") from None
+    finite = np.isfinite(table).all(axis=1)
+    if not finite.all():
+        line = int(np.flatnonzero(~finite)[0]) + 1
+        raise DatasetError(f"ground truth {str(path)!r}: NaN or infinity in data row {line}")
+    if table.shape[1] == 8 and len(table) > 1 and not np.all(np.diff(table[:, 0]) > 0):
+        line = int(np.flatnonzero(np.diff(table[:, 0]) <= 0)[0]) + 2
+        raise DatasetError(f"ground truth {str(path)!r}: TUM times must increase (data row {line}: "
+                           f"{float(table[line - 1, 0])!r} after {float(table[line - 2, 0])!r})")
     if table.shape[1] == 8:
         qx, qy, qz, qw = table[:, 4], table[:, 5], table[:, 6], table[:, 7]
         yaw = np.arctan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy**2 + qz**2))

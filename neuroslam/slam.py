@@ -134,8 +134,13 @@ class NeuroSLAM:
             raise InvalidInputError("image", f"shape {array.shape}", "must be at least 8x8 pixels")
         if not (array.dtype == np.uint8 or np.issubdtype(array.dtype, np.floating)):
             raise InvalidInputError("image", f"dtype {array.dtype}", "must be uint8 or floats in [0, 1]")
-        if np.issubdtype(array.dtype, np.floating) and not np.all(np.isfinite(array)):
-            raise InvalidInputError("image", "with NaN or infinity", "must be finite")
+        if np.issubdtype(array.dtype, np.floating):
+            low, high = float(array.min()), float(array.max())  # NaN propagates, infinity is out of range
+            if not (math.isfinite(low) and math.isfinite(high)):
+                raise InvalidInputError("image", "with NaN or infinity", "must be finite")
+            if low < 0.0 or high > 1.0:
+                raise InvalidInputError("image", f"floats from {low:g} to {high:g}",
+                                        "float images must lie in [0, 1] (pass 0-255 images as uint8)")
         if self._image_shape is not None and array.shape != self._image_shape:
             raise InvalidInputError("image", f"shape {array.shape}",
                                     f"differs from the first frame's {self._image_shape}")
@@ -145,11 +150,10 @@ class NeuroSLAM:
             raise InvalidInputError("timestamp", repr(timestamp), f"must increase (previous: {self._last_time!r})")
         if odometry is not None:
             if not isinstance(odometry, SelfMotion):
-                raise InvalidInputError("odometry", type(odometry).__name__, "must be a SelfMotion")
-            try:
-                odometry.validate()
-            except ValueError as error:
-                raise InvalidInputError("odometry", str(error), "must be finite") from None
+                shape = f" of shape {np.shape(odometry)}" if isinstance(odometry, (np.ndarray, list, tuple)) else ""
+                raise InvalidInputError("odometry", f"{type(odometry).__name__}{shape}",
+                                        "must be a SelfMotion(forward_speed m/s, yaw_rate rad/s, climb_rate m/s)")
+            odometry.validate()
         if array.ndim == 3 and array.shape[2] == 1:
             array = array[:, :, 0]
         return array
@@ -310,8 +314,16 @@ class NeuroSLAM:
 
         Raises:
             ValueError: a part is missing or does not fit the configuration or the rest of the state; the
-                SLAM may then be half restored, so use a fresh instance (as :meth:`load` does).
+                SLAM is then left exactly as it was.
         """
+        backup = {name: np.array(value, copy=True) for name, value in self.state_dict().items()}
+        try:
+            self._load_state(state)
+        except Exception:
+            self._load_state(backup)  # all or nothing: a valid state of this SLAM restores without fail
+            raise
+
+    def _load_state(self, state: dict[str, np.ndarray]) -> None:
         def part(prefix: str) -> dict[str, np.ndarray]:
             return {key[len(prefix) + 1:]: value for key, value in state.items() if key.startswith(prefix + ".")}
 
@@ -489,12 +501,23 @@ class NeuroSLAM:
                     self.experience_map.session, start, self.local_view.count, self.experience_map.size,
                     len(np.unique(self.experience_map.components)))
 
-    def add_map(self, other: NeuroSLAM) -> None:
+    def add_map(self, other: NeuroSLAM | str | Path) -> None:
         """Hold another saved map as well (its own component, merged only when recognised).
+
+        Args:
+            other: a NeuroSLAM, or a map file (or run folder) to :meth:`load`.
 
         Its templates, view associations, experiences and links are appended (ids shifted); it must have
         been built with the same configuration. Call :meth:`begin_session` afterwards.
+
+        Raises:
+            InvalidInputError: ``other`` is not a map or has another configuration; MapFileError: the file
+                cannot be loaded. Nothing is changed then.
         """
+        if isinstance(other, (str, Path)):
+            other = type(self).load(other)
+        if not isinstance(other, NeuroSLAM):
+            raise InvalidInputError("map", type(other).__name__, "must be a NeuroSLAM or the path of a map file")
         if other.config != self.config:
             raise InvalidInputError("map", "with another configuration", "must share this SLAM's configuration")
         themap = self.experience_map

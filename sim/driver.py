@@ -155,6 +155,10 @@ class ScriptedDrive:
 
     Attributes:
         timings: wall-clock seconds spent in physics (with control) and in rendering so far.
+
+    Raises:
+        WorldError: unknown world, MJCF that does not compile. RouteError: unknown route, malformed route
+            file, a waypoint off every floor. InvalidParameterError: a bad option.
     """
 
     def __init__(
@@ -191,6 +195,7 @@ class ScriptedDrive:
         x, y, z = self.route.waypoints[0]
         self.simulation = Simulation(self.world, start=(x, y, z, self.route.start_yaw), robot=robot, camera=camera,
                                      noise=noise, seed=seed, quality=quality)
+        self.simulation.check_route(self.route)  # RouteError for a waypoint off every floor
         self.timings = {"physics": 0.0, "render": 0.0}  # wall-clock seconds spent so far
         self._started = False
 

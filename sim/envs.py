@@ -82,6 +82,17 @@ class RouteGraph:
         return float(np.min(gaps[usable] + field[nodes[usable]]))
 
 
+def _finite_vector(value: Any, size: int, field: str, reason: str) -> np.ndarray:
+    """``value`` as ``size`` finite floats, or InvalidParameterError naming ``field``."""
+    try:
+        vector = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(field, value, reason) from None
+    if vector.shape != (size,) or not np.all(np.isfinite(vector)):
+        raise InvalidParameterError(field, value, reason)
+    return vector
+
+
 class DriveEnv(gym.Env):
     """## Description
     A differential-drive robot with a forward camera drives freely in a multi-level MuJoCo world
@@ -127,6 +138,7 @@ class DriveEnv(gym.Env):
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 10}
+    reset_options: ClassVar[tuple[str, ...]] = ("start",)  # the keys ``reset(options=...)`` accepts
 
     def __init__(
         self,
@@ -150,6 +162,7 @@ class DriveEnv(gym.Env):
         self.frame_period = 1.0 / frame_rate
         self.metadata = {**self.metadata, "render_fps": frame_rate}
         self.simulation = Simulation(self.world, robot=robot, camera=camera, noise=noise, quality=quality)
+        self.simulation.check_route(self.route)  # RouteError for a waypoint off every floor
         limits = np.array([robot.max_forward_speed, robot.max_yaw_rate], dtype=np.float32)
         self.action_space = spaces.Box(-limits, limits, dtype=np.float32)
         self.observation_space = spaces.Dict(self._observation_spaces(camera, limits))
@@ -167,24 +180,37 @@ class DriveEnv(gym.Env):
 
     # gymnasium API -------------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        super().reset(seed=seed)
+        # every option is checked before anything changes: a refused reset leaves the episode as it was
         options = dict(options or {})
+        unknown = sorted(set(options) - set(self.reset_options))
+        if unknown:
+            raise InvalidParameterError("options", unknown, f"unknown reset options for {type(self).__name__} "
+                                        f"(known: {', '.join(self.reset_options)})")
         start = options.pop("start", None)
+        if start is not None:
+            start = _finite_vector(start, 4, "options.start", "must be [x, y, z, yaw] in metres and radians")
+        self._check_reset_options(options)
+        super().reset(seed=seed)
         self._reset_task(options)
-        if options:
-            raise InvalidParameterError("options", sorted(options), f"unknown reset options for {type(self).__name__}")
         if start is None:
             start = self._sample_start()
-        self.simulation.reset(tuple(float(v) for v in np.asarray(start, dtype=float).ravel()),
-                              seed=int(self.np_random.integers(2**31)))
+        self.simulation.reset(tuple(float(v) for v in start), seed=int(self.np_random.integers(2**31)))
         self._collisions = 0
         self._after_reset()
         return self._observation(), self._info()
 
     def step(self, action):
-        action = np.asarray(action, dtype=float)
-        if action.shape != (2,):
-            raise InvalidParameterError("action", action.tolist(), "must be (forward speed, yaw rate)")
+        given = action.tolist() if isinstance(action, np.ndarray) else action
+        try:
+            action = np.asarray(action, dtype=float)
+        except (TypeError, ValueError):
+            raise InvalidParameterError("action", given, "must be two numbers (forward speed, yaw rate)") from None
+        if action.shape != (2,) or given is None:
+            raise InvalidParameterError("action", given, "must be (forward speed, yaw rate)")
+        if not np.all(np.isfinite(action)):
+            raise InvalidParameterError("action", given, "must be finite (NaN or infinity given)")
+        # out-of-range actions are clipped to the action space (the robot's limits), as documented
+        action = np.clip(action, self.action_space.low, self.action_space.high)
         self.simulation.set_command(float(action[0]), float(action[1]))
         self.simulation.step(self.frame_period)
         if self._chassis_touching():
@@ -205,6 +231,9 @@ class DriveEnv(gym.Env):
         self.simulation.close()
 
     # task hooks (overridden by PointNavEnv) ------------------------------------------------------------
+    def _check_reset_options(self, options: dict[str, Any]) -> None:
+        """Raise InvalidParameterError for a bad task option (before the reset changes anything)."""
+
     def _reset_task(self, options: dict[str, Any]) -> None:
         pass
 
@@ -297,6 +326,8 @@ class PointNavEnv(DriveEnv):
     * v0: initial version.
     """
 
+    reset_options: ClassVar[tuple[str, ...]] = ("start", "goal")
+
     def __init__(
         self,
         world: World | str | Path = "carpark",
@@ -332,6 +363,10 @@ class PointNavEnv(DriveEnv):
         return {**super()._observation_spaces(camera, limits), "goal": spaces.Box(
             np.array([0.0, -math.pi, -1e3], dtype=np.float32), bound, dtype=np.float32)}
 
+    def _check_reset_options(self, options: dict[str, Any]) -> None:
+        if options.get("goal") is not None:
+            _finite_vector(options["goal"], 3, "options.goal", "must be [x, y, z] in metres")
+
     def _reset_task(self, options: dict[str, Any]) -> None:
         self._requested_goal = options.pop("goal", None)
 
@@ -346,10 +381,7 @@ class PointNavEnv(DriveEnv):
     def _after_reset(self) -> None:
         position = self.simulation.ground_truth().position
         if self._requested_goal is not None:
-            goal = np.asarray(self._requested_goal, dtype=float)
-            if goal.shape != (3,) or not np.all(np.isfinite(goal)):
-                raise InvalidParameterError("options.goal", self._requested_goal, "must be [x, y, z] in metres")
-            self.goal = goal
+            self.goal = _finite_vector(self._requested_goal, 3, "options.goal", "must be [x, y, z] in metres")
         else:
             field = self.graph.distances_from(self.graph.nearest(position))
             candidates = field[self._floor_nodes]

@@ -17,15 +17,17 @@ import mujoco  # the package's __init__ has chosen MUJOCO_GL before this runs
 import numpy as np
 from dm_control import mjcf
 
-from .errors import InvalidParameterError, SimError, WorldError
+from .errors import InvalidParameterError, RouteError, SimError, WorldError
 from .robot import CameraConfig, RobotConfig, build_robot
-from .world import World
+from .world import Route, World
 
 __all__ = ["GroundTruth", "ImuReading", "OdometryNoise", "Simulation", "WheelOdometry"]
 
 logger = logging.getLogger(__name__)
 
 Quality = Literal["fast", "high"]
+
+ROUTE_FLOOR_TOLERANCE = 0.5  # m: a waypoint's height may differ this much from the surface under it
 
 
 @dataclass(frozen=True)
@@ -128,6 +130,11 @@ def _yaw_of(quaternion: np.ndarray) -> float:
     return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
+def _one_line(error: Exception) -> str:
+    """An error's message on one line (MuJoCo's span several: the error, then the element and line)."""
+    return "; ".join(line.strip() for line in str(error).splitlines() if line.strip())
+
+
 def compose_model(world: World, robot: RobotConfig, camera: CameraConfig, quality: Quality) -> mujoco.MjModel:
     """Attach the robot to the world, apply the visual profile and compile.
 
@@ -144,7 +151,7 @@ def compose_model(world: World, robot: RobotConfig, camera: CameraConfig, qualit
         else:
             arena = mjcf.from_path(str(world.path))
     except Exception as error:  # PyMJCF raises several types for bad files
-        raise WorldError(f"world={world.name!r}: cannot parse MJCF ({error})") from None
+        raise WorldError(f"world={world.name!r}: cannot parse MJCF ({_one_line(error)})") from None
     attachment = arena.attach(build_robot(robot, camera))
     attachment.add("freejoint")
     # the wheels' velocity servos are stiff: only an implicit integrator keeps them stable at any timestep
@@ -160,8 +167,17 @@ def compose_model(world: World, robot: RobotConfig, camera: CameraConfig, qualit
     arena.visual.get_children("global").offheight = max(480, camera.height)
     try:
         model = mujoco.MjModel.from_xml_string(arena.to_xml_string(), arena.get_assets())
-    except ValueError as error:
-        raise WorldError(f"world={world.name!r}: MuJoCo cannot compile it ({error})") from None
+    except ValueError as composed_error:
+        # MuJoCo's message names a line of the composed model; the world on its own names the user's file's
+        message = _one_line(composed_error)
+        try:
+            if world.xml is not None:
+                mujoco.MjModel.from_xml_string(world.xml)
+            else:
+                mujoco.MjModel.from_xml_path(str(world.path))
+        except ValueError as own_error:
+            message = _one_line(own_error)
+        raise WorldError(f"world={world.name!r}: MuJoCo cannot compile it ({message})") from None
     model.vis.map.znear = 0.03 / max(model.stat.extent, 1e-6)  # 3 cm near plane whatever the world's size
     logger.info("compiled world %r with the robot: %d geoms, %s profile", world.name, model.ngeom, quality)
     return model
@@ -209,6 +225,7 @@ class Simulation:
         self._encoder_address = [self.model.sensor(f"robot/{s}_encoder").adr[0] for s in ("left", "right")]
         self._gyro_address = self.model.sensor("robot/gyro").adr[0]
         self._accelerometer_address = self.model.sensor("robot/accelerometer").adr[0]
+        self._robot_bodies = {int(b) for b in np.flatnonzero(self.model.body_rootid == self._body)}
         self._cameras = [self.model.camera(f"robot/view{i}").id for i in range(len(camera.view_yaws))]
         if start is None:
             route = world.route()
@@ -284,6 +301,37 @@ class Simulation:
         state.distance += abs(distance)
         state.forward_speed = distance / period
         state.yaw_rate = turn / period
+
+    def floor_height(self, x: float, y: float, z: float, *, reach: float = ROUTE_FLOOR_TOLERANCE) -> float | None:
+        """Height of the world's surface (not the robot's) under ``(x, y)`` within ``reach`` m of ``z``, or None.
+
+        A vertical ray is cast down from ``z + reach``; the robot's own geoms are passed through.
+        """
+        robot = self._robot_bodies
+        start = np.array([x, y, z + reach], dtype=float)
+        down = np.array([0.0, 0.0, -1.0])
+        geom = np.zeros(1, dtype=np.int32)
+        travelled = 0.0
+        while travelled <= 2 * reach:
+            distance = mujoco.mj_ray(self.model, self.data, start, down, None, 1, -1, geom)
+            if distance < 0:
+                return None
+            travelled += distance
+            if int(self.model.geom_bodyid[geom[0]]) not in robot:
+                return float(z + reach - travelled) if travelled <= 2 * reach else None
+            start = start + down * (distance + 1e-4)  # through the robot's geom
+            travelled += 1e-4
+        return None
+
+    def check_route(self, route: Route) -> None:
+        """Raise :class:`RouteError` naming the first waypoint with no floor within
+        ``ROUTE_FLOOR_TOLERANCE`` m of its height (a waypoint off every floor: the robot could not drive it)."""
+        for index, (x, y, z) in enumerate(route.waypoints):
+            if self.floor_height(float(x), float(y), float(z)) is None:
+                raise RouteError(
+                    f"world={self.world.name!r} route={route.name!r}: waypoints[{index}]="
+                    f"[{x:g}, {y:g}, {z:g}] is off every floor (no surface within {ROUTE_FLOOR_TOLERANCE:g} m "
+                    "above or below it)")
 
     # sensors ---------------------------------------------------------------------------------------------
     def ground_truth(self) -> GroundTruth:

@@ -53,20 +53,7 @@ def test_observations_are_copies_and_truth_stays_in_info():
         env.close()
 
 
-def test_bad_actions_and_options():
-    env = gym.make("NeuroSLAM/Drive-v0").unwrapped
-    try:
-        env.reset(seed=0)
-        with pytest.raises(sim.InvalidParameterError, match="forward_speed"):
-            env.step(np.array([np.nan, 0.0]))
-        before = env.simulation.ground_truth().pose
-        with pytest.raises(sim.InvalidParameterError, match="teleport"):
-            env.reset(seed=0, options={"teleport": True})
-        env.step(np.array([50.0, 0.0]))  # clipped to the robot's 2 m/s
-        assert env.simulation._target[0] == 2.0
-        assert np.all(np.isfinite(before))
-    finally:
-        env.close()
+# bad actions and reset options: tests/test_bad_input.py
 
 
 def test_pointnav_reaches_an_explicit_goal_and_reports_success_and_spl():

@@ -3,10 +3,9 @@
 import math
 
 import numpy as np
-import pytest
 from scipy import ndimage
 
-from neuroslam import InvalidInputError, NeuroSLAM, SelfMotion
+from neuroslam import NeuroSLAM, SelfMotion
 
 
 def image(seed, shape=(120, 160, 3)):
@@ -14,35 +13,7 @@ def image(seed, shape=(120, 160, 3)):
     return (ndimage.gaussian_filter(rng.random(shape[:2]), 2) * 255).astype(np.uint8)[:, :, None].repeat(3, axis=2)
 
 
-def state(slam):
-    return (slam.frames, slam.local_view.count, slam.experience_map.size, slam.grid_cells.activity.copy(),
-            slam.head_direction.activity.copy(), slam.odometry_pose)
-
-
-@pytest.mark.parametrize("bad, args, field", [
-    (np.zeros((120, 160, 4), np.uint8), (), "image"),
-    (np.zeros((0, 160), np.uint8), (), "image"),
-    (np.array([["a"] * 20] * 20), (), "image"),
-    (np.zeros((120, 160), np.uint16), (), "image"),
-    (np.full((120, 160), np.nan), (), "image"),
-    (np.zeros((100, 160, 3), np.uint8), (), "image"),
-    (None, (float("nan"),), "timestamp"),
-    (None, (0.05,), "timestamp"),
-    (None, (0.3, SelfMotion(float("inf"), 0.0)), "odometry"),
-])
-def test_bad_input_is_refused_and_changes_nothing(bad, args, field):
-    slam = NeuroSLAM()
-    slam.step(image(0), 0.1)
-    before = state(slam)
-    frame = image(1) if bad is None else bad
-    timestamp, *rest = args or (0.2,)
-    with pytest.raises(InvalidInputError) as error:
-        slam.step(frame, timestamp, *rest)
-    assert error.value.field == field
-    after = state(slam)
-    assert before[:3] == after[:3]
-    for a, b in zip(before[3:], after[3:], strict=True):
-        np.testing.assert_array_equal(a, b)
+# bad input to step: tests/test_bad_input.py
 
 
 def test_a_revisited_route_reuses_its_views_and_closes_loops():

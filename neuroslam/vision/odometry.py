@@ -29,7 +29,7 @@ from functools import lru_cache
 import numpy as np
 
 from ..config import VisualOdometryConfig
-from ..errors import InvalidParameterError
+from ..errors import InvalidInputError, InvalidParameterError
 from .ground_motion import GroundMotion
 from .preprocessing import crop, resize
 
@@ -50,11 +50,13 @@ class SelfMotion:
     climb_rate: float = 0.0
 
     def validate(self) -> None:
-        """Raise ValueError naming the first field that is not a finite number."""
+        """Raise :class:`~neuroslam.errors.InvalidInputError` (a ValueError) naming the first field that is not
+        a finite number."""
         for name in ("forward_speed", "yaw_rate", "climb_rate"):
             value = getattr(self, name)
-            if not isinstance(value, (int, float, np.floating)) or not math.isfinite(value):
-                raise ValueError(f"odometry.{name}={value!r}: must be a finite number")
+            if (not isinstance(value, (int, float, np.integer, np.floating)) or isinstance(value, bool)
+                    or not math.isfinite(value)):
+                raise InvalidInputError(f"odometry.{name}", repr(value), "must be a finite number")
 
 
 def best_shift(previous: np.ndarray, current: np.ndarray, max_shift: int, *, circular: bool = False

@@ -52,6 +52,14 @@ class MapFileError(NeuroSLAMError, ValueError):
         super().__init__(f"map file {self.path!r}: {reason}")
 
 
+def _member(name: str) -> zipfile.ZipInfo:
+    """A stored member dated 1980-01-01 (ZIP's epoch), so the same map gives a byte-identical file."""
+    info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
+    info.compress_type = zipfile.ZIP_STORED
+    info.external_attr = 0o644 << 16
+    return info
+
+
 def write_map(path: str | Path, header: dict[str, Any], arrays: dict[str, np.ndarray]) -> Path:
     """Write ``arrays`` and ``header`` (plus the format, version and manifest) atomically to ``path``.
 
@@ -78,9 +86,9 @@ def write_map(path: str | Path, header: dict[str, Any], arrays: dict[str, np.nda
     try:
         with os.fdopen(handle, "wb") as file:
             with zipfile.ZipFile(file, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as archive:
-                archive.writestr(HEADER, json.dumps(full_header, indent=1, sort_keys=True))
+                archive.writestr(_member(HEADER), json.dumps(full_header, indent=1, sort_keys=True))
                 for name, array in arrays.items():
-                    with archive.open(f"{name}.npy", "w", force_zip64=True) as member:
+                    with archive.open(_member(f"{name}.npy"), "w", force_zip64=True) as member:
                         np.lib.format.write_array(member, np.asarray(array, order="C"), allow_pickle=False)
             file.flush()
             os.fsync(file.fileno())

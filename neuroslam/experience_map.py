@@ -30,6 +30,7 @@ __all__ = ["ExperienceMap", "MapUpdate"]
 SETTLED = 1e-4  # m or rad: relaxation stops once no experience moves more than this in a pass
 LEAST_SQUARES_ITERATIONS = 3  # Gauss–Newton iterations at most per frame; an unfinished solve goes on next frame
 LEAST_SQUARES_SETTLED = 1e-3  # m or rad: the solve stops once no experience moves more than this
+LEAST_SQUARES_HALVINGS = 20  # step halvings tried before a Gauss–Newton step counts as no descent
 LEAST_SQUARES_TRIGGER = 1e-2  # m or rad: a loop closure with a smaller error does not start a solve
 # what state_dict() saves: state name → (attribute, columns, dtype)
 _STATE_ARRAYS = {
@@ -500,8 +501,10 @@ class ExperienceMap:
         linearised (including the dependence of r_xy on the source's yaw), and the normal equations
         solved by a sparse LU, the first experience held fixed; only the robot's component is solved (the
         others are separate maps, each held by its own first experience). A frame runs at most
-        ``LEAST_SQUARES_ITERATIONS`` iterations; a solve that has not converged (no experience moving more
-        than 1 mm) goes on at the next frame, so no frame waits for a long solve.
+        ``LEAST_SQUARES_ITERATIONS`` iterations, each step halved until the total error does not rise (so a
+        solve never increases it, even where a false closure makes the links disagree grossly); a solve that
+        has not converged (no experience moving more than 1 mm) goes on at the next frame, so no frame waits
+        for a long solve.
         """
         # the robot's component only (other components are separate maps, each with its own first experience)
         members = np.flatnonzero(self.components == self.component)
@@ -515,12 +518,18 @@ class ExperienceMap:
         poses = self._poses.data[members]
         rows = np.arange(count)
         ones = np.ones(count)
-        for _ in range(LEAST_SQUARES_ITERATIONS):
+
+        def residual_at(poses: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             direction = poses[sources, 3] + heading
             cos, sin = distance * np.cos(direction), distance * np.sin(direction)
-            residual = np.concatenate([
+            return np.concatenate([
                 poses[sources, 0] + cos - poses[targets, 0], poses[sources, 1] + sin - poses[targets, 1],
-                poses[sources, 2] + height - poses[targets, 2], _wrap(poses[sources, 3] + facing - poses[targets, 3])])
+                poses[sources, 2] + height - poses[targets, 2],
+                _wrap(poses[sources, 3] + facing - poses[targets, 3])]), cos, sin
+
+        residual, cos, sin = residual_at(poses)
+        cost = float(residual @ residual)
+        for _ in range(LEAST_SQUARES_ITERATIONS):
             # Jacobian: residual block a (x, y, z, yaw) against the source's and target's variables
             jacobian_rows = np.concatenate([rows, rows, rows, rows + count, rows + count, rows + count,
                                             rows + 2 * count, rows + 2 * count, rows + 3 * count, rows + 3 * count])
@@ -534,10 +543,24 @@ class ExperienceMap:
             normal = (jacobian.T @ jacobian).tocsc()
             factor = scipy.sparse.linalg.splu(normal)  # COLAMD ordering: about 2x faster than spsolve's here
             step = factor.solve(-(jacobian.T @ residual)).reshape(n - 1, 4)
-            poses[1:] += step
-            poses[:, 3] = _wrap(poses[:, 3])
+            # backtracking: a full step can overshoot where the links disagree grossly (the yaw coupling is
+            # far from linear), so the step is halved until the total squared link error does not rise
+            scale = 1.0
+            for _halving in range(LEAST_SQUARES_HALVINGS):
+                trial = poses.copy()
+                trial[1:] += scale * step
+                trial[:, 3] = _wrap(trial[:, 3])
+                trial_residual, trial_cos, trial_sin = residual_at(trial)
+                trial_cost = float(trial_residual @ trial_residual)
+                if trial_cost <= cost:
+                    break
+                scale /= 2
+            else:  # no descent along the Gauss–Newton direction: a minimum, up to round-off
+                self._settled = True
+                return
+            poses, residual, cos, sin, cost = trial, trial_residual, trial_cos, trial_sin, trial_cost
             self._poses.data[members] = poses
-            if len(step) == 0 or np.abs(step).max() < LEAST_SQUARES_SETTLED:
+            if len(step) == 0 or scale * np.abs(step).max() < LEAST_SQUARES_SETTLED:
                 self._settled = True
                 return
 
@@ -546,7 +569,10 @@ class ExperienceMap:
 
         Once a pass moves no experience by more than ``SETTLED`` (m or rad) the map counts as settled and
         further passes are skipped until a loop closure adds an inconsistent link (a link made from the
-        odometry to a new experience agrees with the poses by construction).
+        odometry to a new experience agrees with the poses by construction). The passes ignore how a source's
+        yaw moves its target, so near where they settle a pass can raise the total squared link error (by up to
+        ~1 % on noisy loops): such a pass is undone and the map counts as settled, so relaxation never
+        increases the error.
         """
         if passes == 0 or self._links.count == 0 or self._settled:
             return
@@ -557,7 +583,8 @@ class ExperienceMap:
         # one contiguous array per axis: gathers and scatters over 1-D arrays are several times faster
         x, y, z, yaw = (np.ascontiguousarray(self._poses.data[:n, axis]) for axis in range(4))
         settled = False
-        for _ in range(passes):
+        previous, before = math.inf, None
+        for index in range(passes + 1):  # the errors after the last pass are checked too
             source_yaw = yaw[sources]
             direction = source_yaw + heading
             errors = (
@@ -566,15 +593,22 @@ class ExperienceMap:
                 z[sources] + height - z[targets],
                 _wrap(source_yaw + facing - yaw[targets]),
             )
+            total = sum(float(error @ error) for error in errors)
+            if total > previous:  # the pass raised the total error: undo it; the map has settled
+                for values, kept in zip((x, y, z, yaw), before, strict=True):
+                    values[:] = kept
+                settled = True
+                break
+            if index == passes or settled:
+                break
+            previous, before = total, (x.copy(), y.copy(), z.copy(), yaw.copy())
             largest = 0.0
             for values, error in zip((x, y, z, yaw), errors, strict=True):
                 step = (np.bincount(targets, error, n) - np.bincount(sources, error, n)) * scale
                 values += step
                 largest = max(largest, float(np.abs(step).max()))
             yaw[:] = _wrap(yaw)
-            if largest < SETTLED:
-                settled = True
-                break
+            settled = largest < SETTLED
         for axis, values in enumerate((x, y, z, yaw)):
             self._poses.data[:n, axis] = values
         self._settled = settled

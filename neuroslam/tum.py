@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .datasets import DatasetError
+
 __all__ = ["read_tum", "write_tum", "yaw_quaternion"]
 
 
@@ -40,7 +42,9 @@ def write_tum(path: str | Path, timestamps: np.ndarray, positions: np.ndarray, q
     try:
         with os.fdopen(handle, "w") as file:
             file.write("# timestamp x y z qx qy qz qw\n")
-            np.savetxt(file, rows, fmt="%.9g")
+            # each number as Python's shortest repr that reads back to the same float64 (exact round trip;
+            # 9 significant digits would put Unix-time stamps up to 10 s off)
+            file.write("".join(" ".join(map(repr, row)) + "\n" for row in rows.tolist()))
         os.replace(temporary, path)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
@@ -48,8 +52,14 @@ def write_tum(path: str | Path, timestamps: np.ndarray, positions: np.ndarray, q
 
 
 def read_tum(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Read a TUM file; returns (timestamps (N,), positions (N, 3), quaternions (N, 4) w-x-y-z)."""
-    rows = np.loadtxt(path, comments="#", ndmin=2)
+    """Read a TUM file; returns (timestamps (N,), positions (N, 3), quaternions (N, 4) w-x-y-z).
+
+    Raises :class:`~neuroslam.datasets.DatasetError` (a ValueError) for a missing or malformed file."""
+    try:
+        rows = np.loadtxt(path, comments="#", ndmin=2)
+    except (OSError, ValueError) as error:
+        reason = error.strerror if isinstance(error, OSError) and error.strerror else error
+        raise DatasetError(f"TUM file {str(path)!r}: cannot read it ({reason})") from None
     if rows.shape[1] != 8:
-        raise ValueError(f"{str(path)!r}: expected 8 columns (t x y z qx qy qz qw), found {rows.shape[1]}")
+        raise DatasetError(f"TUM file {str(path)!r}: expected 8 columns (t x y z qx qy qz qw), found {rows.shape[1]}")
     return rows[:, 0], rows[:, 1:4], np.column_stack([rows[:, 7], rows[:, 4:7]])

@@ -129,7 +129,7 @@ def _parser() -> argparse.ArgumentParser:
         "--groundtruth (TUM, whose times become the frames' times, or the NeuroSLAM CSV frame,x,y,z,rx,ry,rz) "
         "metrics.json adds the trajectory and map errors.")
     run.add_argument("frames", type=Path, help="folder of frames (for example one written by neuroslam record)")
-    run.add_argument("--groundtruth", type=Path, help="ground truth: TUM or NeuroSLAM CSV")
+    run.add_argument("--groundtruth", type=Path, help="ground truth: TUM or NeuroSLAM CSV, one row per frame")
     run.add_argument("--rate", type=_positive_float, default=10.0,
                      help="frames per second when the ground truth gives no times (default: 10)")
     run.add_argument("--max-frames", type=_positive_int, help="use only the first N frames")

@@ -16,7 +16,8 @@ import numpy as np
 from gymnasium import spaces
 
 from .config import Config
-from .slam import NeuroSLAM
+from .errors import InvalidParameterError
+from .slam import NeuroSLAM, _resolve
 from .vision.odometry import SelfMotion
 
 __all__ = ["NeuroSLAMWrapper"]
@@ -39,7 +40,17 @@ class NeuroSLAMWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         gym.utils.RecordConstructorArgs.__init__(self, config=config, image_key=image_key, odometry_key=odometry_key,
                                                  add_to_observation=add_to_observation)
         gym.Wrapper.__init__(self, env)
-        self.slam_config = config
+        space = env.observation_space
+        if isinstance(space, spaces.Dict):
+            for field, key in (("image_key", image_key), ("odometry_key", odometry_key)):
+                if key is not None and key not in space.spaces:
+                    raise InvalidParameterError(field, key, f"not a key of the observation ({', '.join(space.spaces)})")
+        elif odometry_key is not None:
+            raise InvalidParameterError("odometry_key", odometry_key, "needs a Dict observation space")
+        image_space = space.spaces[image_key] if isinstance(space, spaces.Dict) else space
+        if not isinstance(image_space, spaces.Box) or len(image_space.shape) not in (2, 3):
+            raise InvalidParameterError("env", str(image_space), "must observe an image (a Box HxW or HxWx3)")
+        self.slam_config = _resolve(config)  # a bad configuration fails here, not at the first reset
         self.image_key = image_key
         self.odometry_key = odometry_key
         self.add_to_observation = add_to_observation
@@ -47,7 +58,7 @@ class NeuroSLAMWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         self._steps = 0
         if add_to_observation:
             if not isinstance(env.observation_space, spaces.Dict):
-                raise ValueError("add_to_observation=True needs a Dict observation space")
+                raise InvalidParameterError("add_to_observation", True, "needs a Dict observation space")
             self.observation_space = spaces.Dict({
                 **env.observation_space.spaces,
                 "slam_pose": spaces.Box(np.array([-1e6, -1e6, -1e6, -np.pi], dtype=np.float32),

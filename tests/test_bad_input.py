@@ -480,6 +480,24 @@ def test_a_bad_environment_argument_is_refused(arguments, message):
     assert message in _one_line(error.value)
 
 
+@pytest.mark.parametrize("make, arguments, message", [
+    (lambda: gym.make("NeuroSLAM/Drive-v0", world="gen:2"), {"image_key": "rgb"},
+     "image_key='rgb': not a key of the observation (image, odometry)"),
+    (lambda: gym.make("NeuroSLAM/Drive-v0", world="gen:2"), {"odometry_key": "wheels"}, "odometry_key='wheels'"),
+    (lambda: gym.make("NeuroSLAM/Drive-v0", world="gen:2"), {"config": "nope"}, "preset='nope'"),
+    (lambda: gym.make("CartPole-v1"), {}, "must observe an image"),
+    (lambda: gym.make("CartPole-v1"), {"odometry_key": "speed"}, "odometry_key='speed': needs a Dict"),
+])
+def test_the_slam_wrapper_refuses_what_it_cannot_use_when_it_is_built(make, arguments, message):
+    from neuroslam.wrappers import NeuroSLAMWrapper
+
+    env = make()
+    with pytest.raises(InvalidParameterError) as error:
+        NeuroSLAMWrapper(env, **arguments)
+    assert message in _one_line(error.value)
+    env.close()
+
+
 # the command line ----------------------------------------------------------------------------------------
 def test_the_command_line_turns_every_kind_of_bad_input_into_one_line_and_exit_code_2(tmp_path, capsys):
     """One case per boundary through ``neuroslam``: exit code 2, one line on stderr naming the problem."""

@@ -31,6 +31,7 @@ SETTLED = 1e-4  # m or rad: relaxation stops once no experience moves more than 
 LEAST_SQUARES_ITERATIONS = 3  # Gauss–Newton iterations at most per frame; an unfinished solve goes on next frame
 LEAST_SQUARES_SETTLED = 1e-3  # m or rad: the solve stops once no experience moves more than this
 LEAST_SQUARES_HALVINGS = 20  # step halvings tried before a Gauss–Newton step counts as no descent
+PASS_HALVINGS = 20  # halvings of an eq. 25 pass that would raise the total link error before the map counts as settled
 LEAST_SQUARES_TRIGGER = 1e-2  # m or rad: a loop closure with a smaller error does not start a solve
 # what state_dict() saves: state name → (attribute, columns, dtype)
 _STATE_ARRAYS = {
@@ -560,7 +561,7 @@ class ExperienceMap:
                 return
             poses, residual, cos, sin, cost = trial, trial_residual, trial_cos, trial_sin, trial_cost
             self._poses.data[members] = poses
-            if len(step) == 0 or scale * np.abs(step).max() < LEAST_SQUARES_SETTLED:
+            if len(step) == 0 or np.abs(step).max() < LEAST_SQUARES_SETTLED:  # the full step, not a halved one
                 self._settled = True
                 return
 
@@ -570,9 +571,11 @@ class ExperienceMap:
         Once a pass moves no experience by more than ``SETTLED`` (m or rad) the map counts as settled and
         further passes are skipped until a loop closure adds an inconsistent link (a link made from the
         odometry to a new experience agrees with the poses by construction). The passes ignore how a source's
-        yaw moves its target, so near where they settle a pass can raise the total squared link error (by up to
-        ~1 % on noisy loops): such a pass is undone and the map counts as settled, so relaxation never
-        increases the error.
+        yaw moves its target, so near where they settle a full pass can raise the total squared link error (by
+        up to ~1 % on noisy loops): such a pass is halved until it does not (at most ``PASS_HALVINGS`` times);
+        where no part of it helps, the pass is taken with the yaw coupling (the error's gradient, scaled as
+        eq. 25 scales it), which always helps unless the map is at a minimum. So relaxation never increases the
+        error; passes that lower it are the paper's, unchanged.
         """
         if passes == 0 or self._links.count == 0 or self._settled:
             return
@@ -582,9 +585,8 @@ class ExperienceMap:
         scale = self.config.correction / np.maximum(self._degree.view, 1) / 2
         # one contiguous array per axis: gathers and scatters over 1-D arrays are several times faster
         x, y, z, yaw = (np.ascontiguousarray(self._poses.data[:n, axis]) for axis in range(4))
-        settled = False
-        previous, before = math.inf, None
-        for index in range(passes + 1):  # the errors after the last pass are checked too
+
+        def link_errors(x, y, z, yaw) -> tuple[tuple[np.ndarray, ...], float]:
             source_yaw = yaw[sources]
             direction = source_yaw + heading
             errors = (
@@ -593,22 +595,46 @@ class ExperienceMap:
                 z[sources] + height - z[targets],
                 _wrap(source_yaw + facing - yaw[targets]),
             )
-            total = sum(float(error @ error) for error in errors)
-            if total > previous:  # the pass raised the total error: undo it; the map has settled
-                for values, kept in zip((x, y, z, yaw), before, strict=True):
-                    values[:] = kept
+            return errors, sum(float(error @ error) for error in errors)
+
+        def pass_steps(errors) -> list[np.ndarray]:
+            return [(np.bincount(targets, error, n) - np.bincount(sources, error, n)) * scale for error in errors]
+
+        def coupled_steps(x, y, z, yaw, errors) -> list[np.ndarray]:
+            # eq. 25's steps plus, in the source's yaw, how turning it moves the link's far end: a positively
+            # scaled negative gradient of the total error, so a small enough step always lowers it
+            steps = pass_steps(errors)
+            direction = yaw[sources] + heading
+            turning = errors[1] * distance * np.cos(direction) - errors[0] * distance * np.sin(direction)
+            steps[3] = steps[3] - np.bincount(sources, turning, n) * scale
+            return steps
+
+        errors, total = link_errors(x, y, z, yaw)
+        settled = False
+        for _ in range(passes):
+            # the paper's pass; if even a small part of it would raise the total error (it ignores how a
+            # source's yaw moves its target), the pass with that coupling, which cannot
+            for steps in (pass_steps(errors), None):
+                if steps is None:
+                    steps = coupled_steps(x, y, z, yaw, errors)
+                fraction = 1.0
+                for _halving in range(PASS_HALVINGS):
+                    trial = [values + fraction * step for values, step in zip((x, y, z, yaw), steps, strict=True)]
+                    trial[3] = _wrap(trial[3])
+                    trial_errors, trial_total = link_errors(*trial)
+                    if trial_total <= total:
+                        break
+                    fraction /= 2
+                else:
+                    continue
+                break
+            else:  # no step of either kind lowers the error: a minimum, up to round-off
                 settled = True
                 break
-            if index == passes or settled:
+            (x, y, z, yaw), errors, total = trial, trial_errors, trial_total
+            if max(float(np.abs(step).max()) for step in steps) < SETTLED:  # the full pass, not a halved one
+                settled = True
                 break
-            previous, before = total, (x.copy(), y.copy(), z.copy(), yaw.copy())
-            largest = 0.0
-            for values, error in zip((x, y, z, yaw), errors, strict=True):
-                step = (np.bincount(targets, error, n) - np.bincount(sources, error, n)) * scale
-                values += step
-                largest = max(largest, float(np.abs(step).max()))
-            yaw[:] = _wrap(yaw)
-            settled = largest < SETTLED
         for axis, values in enumerate((x, y, z, yaw)):
             self._poses.data[:n, axis] = values
         self._settled = settled

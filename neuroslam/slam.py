@@ -73,6 +73,9 @@ class Estimate:
     merged: bool = False
 
 
+FLOAT_IMAGE_SLACK = 1e-3  # a float image may overshoot [0, 1] by this much (resampling ringing); it is clipped
+
+
 class NeuroSLAM:
     """Brain-inspired 4-DoF SLAM.
 
@@ -138,9 +141,11 @@ class NeuroSLAM:
             low, high = float(array.min()), float(array.max())  # NaN propagates, infinity is out of range
             if not (math.isfinite(low) and math.isfinite(high)):
                 raise InvalidInputError("image", "with NaN or infinity", "must be finite")
-            if low < 0.0 or high > 1.0:
-                raise InvalidInputError("image", f"floats from {low:g} to {high:g}",
+            if low < -FLOAT_IMAGE_SLACK or high > 1.0 + FLOAT_IMAGE_SLACK:
+                raise InvalidInputError("image", f"floats from {low!r} to {high!r}",
                                         "float images must lie in [0, 1] (pass 0-255 images as uint8)")
+            if low < 0.0 or high > 1.0:  # interpolation overshoot (a resize's ringing): clipped
+                array = np.clip(array, 0.0, 1.0)
         if self._image_shape is not None and array.shape != self._image_shape:
             raise InvalidInputError("image", f"shape {array.shape}",
                                     f"differs from the first frame's {self._image_shape}")

@@ -84,12 +84,13 @@ class RouteGraph:
 
 def _finite_vector(value: Any, size: int, field: str, reason: str) -> np.ndarray:
     """``value`` as ``size`` finite floats, or InvalidParameterError naming ``field``."""
+    shown = value.tolist() if isinstance(value, np.ndarray) else value  # an array's repr spans lines
     try:
         vector = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise InvalidParameterError(field, value, reason) from None
+        raise InvalidParameterError(field, shown, reason) from None
     if vector.shape != (size,) or not np.all(np.isfinite(vector)):
-        raise InvalidParameterError(field, value, reason)
+        raise InvalidParameterError(field, shown, reason)
     return vector
 
 
@@ -181,6 +182,8 @@ class DriveEnv(gym.Env):
     # gymnasium API -------------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         # every option is checked before anything changes: a refused reset leaves the episode as it was
+        if options is not None and not isinstance(options, dict):
+            raise InvalidParameterError("options", options, "must be a dict (or None)")
         options = dict(options or {})
         unknown = sorted(set(options) - set(self.reset_options))
         if unknown:

@@ -226,6 +226,7 @@ class Simulation:
         self._gyro_address = self.model.sensor("robot/gyro").adr[0]
         self._accelerometer_address = self.model.sensor("robot/accelerometer").adr[0]
         self._robot_bodies = {int(b) for b in np.flatnonzero(self.model.body_rootid == self._body)}
+        self._collidable = (self.model.geom_contype != 0) | (self.model.geom_conaffinity != 0)
         self._cameras = [self.model.camera(f"robot/view{i}").id for i in range(len(camera.view_yaws))]
         if start is None:
             route = world.route()
@@ -303,25 +304,33 @@ class Simulation:
         state.yaw_rate = turn / period
 
     def floor_height(self, x: float, y: float, z: float, *, reach: float = ROUTE_FLOOR_TOLERANCE) -> float | None:
-        """Height of the world's surface (not the robot's) under ``(x, y)`` within ``reach`` m of ``z``, or None.
+        """Height of the world's surface under ``(x, y)`` within ``reach`` m of ``z``, or None.
 
-        A vertical ray is cast down from ``z + reach``; the robot's own geoms are passed through.
+        A vertical ray is cast down from ``z + reach`` against the geoms the robot can touch: the robot's own
+        geoms and purely visual ones (no collision) are passed through, invisible colliders count.
         """
-        robot = self._robot_bodies
-        start = np.array([x, y, z + reach], dtype=float)
-        down = np.array([0.0, 0.0, -1.0])
-        geom = np.zeros(1, dtype=np.int32)
-        travelled = 0.0
-        while travelled <= 2 * reach:
-            distance = mujoco.mj_ray(self.model, self.data, start, down, None, 1, -1, geom)
-            if distance < 0:
-                return None
-            travelled += distance
-            if int(self.model.geom_bodyid[geom[0]]) not in robot:
-                return float(z + reach - travelled) if travelled <= 2 * reach else None
-            start = start + down * (distance + 1e-4)  # through the robot's geom
-            travelled += 1e-4
-        return None
+        model = self.model
+        hidden = np.flatnonzero((model.geom_rgba[:, 3] == 0) & self._collidable)
+        alpha = model.geom_rgba[hidden, 3].copy()
+        model.geom_rgba[hidden, 3] = 1.0  # mj_ray skips transparent geoms; a hidden collider is still a floor
+        try:
+            start = np.array([x, y, z + reach], dtype=float)
+            down = np.array([0.0, 0.0, -1.0])
+            geom = np.zeros(1, dtype=np.int32)
+            travelled = 0.0
+            while travelled <= 2 * reach:
+                distance = mujoco.mj_ray(model, self.data, start, down, None, 1, -1, geom)
+                if distance < 0:
+                    return None
+                travelled += distance
+                hit = int(geom[0])
+                if self._collidable[hit] and int(model.geom_bodyid[hit]) not in self._robot_bodies:
+                    return float(z + reach - travelled) if travelled <= 2 * reach else None
+                start = start + down * (distance + 1e-4)  # through the robot's or a visual-only geom
+                travelled += 1e-4
+            return None
+        finally:
+            model.geom_rgba[hidden, 3] = alpha
 
     def check_route(self, route: Route) -> None:
         """Raise :class:`RouteError` naming the first waypoint with no floor within

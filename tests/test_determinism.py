@@ -13,6 +13,7 @@ import json
 import subprocess
 import sys
 import textwrap
+import zipfile
 
 import pytest
 
@@ -117,3 +118,5 @@ def test_map_files_of_the_same_state_are_byte_identical(tmp_path, seed):
             slam.step(image(seed * 100 + k), 0.1 * (k + 1), SelfMotion(1.0, 0.3))
         paths.append(slam.save(tmp_path / f"map{copy}.npz", extra={"truth": np.arange(3.0)}))
     assert hashlib.sha256(paths[0].read_bytes()).digest() == hashlib.sha256(paths[1].read_bytes()).digest()
+    with zipfile.ZipFile(paths[0]) as archive:  # no clock in the file (two saves a second apart would differ)
+        assert {info.date_time for info in archive.infolist()} == {(1980, 1, 1, 0, 0, 0)}

@@ -530,7 +530,8 @@ def test_the_slam_wrapper_refuses_what_it_cannot_use_when_it_is_built(make, argu
 
 # the command line ----------------------------------------------------------------------------------------
 def test_the_command_line_turns_every_kind_of_bad_input_into_one_line_and_exit_code_2(tmp_path, capsys):
-    """One case per boundary through ``neuroslam``: exit code 2, one line on stderr naming the problem."""
+    """One case per boundary through ``neuroslam``: exit code 2, one line on stderr naming the problem, and no
+    output folder made."""
     frames = _frames(tmp_path / "frames", [(160, 120)] * 3)
     (tmp_path / "short.txt").write_text("0 1 2 3 0 0 0 1\n")
     (tmp_path / "bad.toml").write_text("[local_view]\ntreshold = 0.1\n")
@@ -551,3 +552,4 @@ def test_the_command_line_turns_every_kind_of_bad_input_into_one_line_and_exit_c
         assert main([*args, "--out", str(tmp_path / "out")]) == 2, args
         lines = capsys.readouterr().err.strip().splitlines()
         assert len(lines) == 1 and message in lines[0], (args, lines)
+        assert not (tmp_path / "out").exists(), args  # refused before anything is written

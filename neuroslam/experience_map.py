@@ -600,38 +600,39 @@ class ExperienceMap:
         def pass_steps(errors) -> list[np.ndarray]:
             return [(np.bincount(targets, error, n) - np.bincount(sources, error, n)) * scale for error in errors]
 
-        def coupled_steps(x, y, z, yaw, errors) -> list[np.ndarray]:
+        def with_coupling(steps, yaw, errors) -> list[np.ndarray]:
             # eq. 25's steps plus, in the source's yaw, how turning it moves the link's far end: a positively
             # scaled negative gradient of the total error, so a small enough step always lowers it
-            steps = pass_steps(errors)
             direction = yaw[sources] + heading
             turning = errors[1] * distance * np.cos(direction) - errors[0] * distance * np.sin(direction)
-            steps[3] = steps[3] - np.bincount(sources, turning, n) * scale
-            return steps
+            return [*steps[:3], steps[3] - np.bincount(sources, turning, n) * scale]
+
+        def halved(steps, total):
+            """The largest of the step, its half, its quarter, ... that does not raise the total error."""
+            fraction = 1.0
+            for _halving in range(PASS_HALVINGS):
+                trial = [values + fraction * step for values, step in zip((x, y, z, yaw), steps, strict=True)]
+                trial[3] = _wrap(trial[3])
+                trial_errors, trial_total = link_errors(*trial)
+                if trial_total <= total:
+                    return trial, trial_errors, trial_total
+                fraction /= 2
+            return None
 
         errors, total = link_errors(x, y, z, yaw)
         settled = False
         for _ in range(passes):
-            # the paper's pass; if even a small part of it would raise the total error (it ignores how a
-            # source's yaw moves its target), the pass with that coupling, which cannot
-            for steps in (pass_steps(errors), None):
-                if steps is None:
-                    steps = coupled_steps(x, y, z, yaw, errors)
-                fraction = 1.0
-                for _halving in range(PASS_HALVINGS):
-                    trial = [values + fraction * step for values, step in zip((x, y, z, yaw), steps, strict=True)]
-                    trial[3] = _wrap(trial[3])
-                    trial_errors, trial_total = link_errors(*trial)
-                    if trial_total <= total:
-                        break
-                    fraction /= 2
-                else:
-                    continue
-                break
-            else:  # no step of either kind lowers the error: a minimum, up to round-off
+            # the paper's pass; if no part of it lowers the total error (it ignores how a source's yaw moves its
+            # target), the pass with that coupling, which does unless the map is at a minimum
+            steps = pass_steps(errors)
+            accepted = halved(steps, total)
+            if accepted is None:
+                steps = with_coupling(steps, yaw, errors)
+                accepted = halved(steps, total)
+            if accepted is None:  # a minimum, up to round-off
                 settled = True
                 break
-            (x, y, z, yaw), errors, total = trial, trial_errors, trial_total
+            (x, y, z, yaw), errors, total = accepted
             if max(float(np.abs(step).max()) for step in steps) < SETTLED:  # the full pass, not a halved one
                 settled = True
                 break

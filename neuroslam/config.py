@@ -139,9 +139,19 @@ class VisualOdometryConfig:
             of eq. 30) for ``profile``, a correction near 1 for ``ground``.
         max_speed: speed clip, m/s (v_max of eq. 30). max_yaw_rate: yaw-rate clip, rad/s.
         max_climb_rate: climb-rate clip, m/s (v_max^h).
-        pitch_leak: rate at which the integrated pitch relaxes to level, 1/s.
-        pitch_flow_bias: apparent pitch change per metre driven on level ground, rad/m (calibration).
-        climb_scale: gain on the climb rate speed × sin(pitch) (calibration).
+        height_model: how the pitch (and so the climb, speed × sin pitch) is followed: ``profile`` (eqs.
+            31–32: the height region's row shift integrated frame after frame, with the leak, bias and gain
+            below) or ``transitions`` (level floors joined by ramps: the rotation between frames by direct
+            alignment, eqs. R1–R2, and pitch changes taken only as whole transitions, eq. R3, of
+            :mod:`neuroslam.vision.pitch`; pinhole cameras only).
+        pitch_leak: rate at which the integrated pitch relaxes to level, 1/s (``profile``).
+        pitch_flow_bias: apparent pitch change per metre driven on level ground, rad/m (calibration, ``profile``).
+        climb_scale: gain on the climb rate speed × sin(pitch) (calibration, ``profile``).
+        transition_rate: pitch change per second above which a frame belongs to a ramp's foot or top, rad/s
+            (``transitions``; a transition of 10° over the robot's length at 1 m/s turns at about 30°/s).
+        transition_min: smallest pitch change taken as a transition, rad (``transitions``).
+        max_slope: steepest slope driven; a transition leaving the pitch steeper is refused, rad (``transitions``).
+        level_snap: a pitch this close to level after a transition is level, rad (``transitions``).
         yaw_scale: gain on the yaw rate from the column shift (calibration; 1 = geometric).
     """
 
@@ -162,6 +172,11 @@ class VisualOdometryConfig:
     pitch_flow_bias: float = 0.012
     climb_scale: float = 0.4
     yaw_scale: float = 1.0
+    height_model: str = "transitions"
+    transition_rate: float = math.radians(10.0)
+    transition_min: float = math.radians(3.0)
+    max_slope: float = math.radians(15.0)
+    level_snap: float = math.radians(4.0)
 
     def __post_init__(self) -> None:
         self.validate()
@@ -186,6 +201,14 @@ class VisualOdometryConfig:
         _positive(path, camera_height=self.camera_height)
         _require(f"{path}.pitch_flow_bias", self.pitch_flow_bias, _number(self.pitch_flow_bias),
                  "must be a number (rad/m)")
+        _require(f"{path}.height_model", self.height_model, self.height_model in ("profile", "transitions"),
+                 "must be 'profile' or 'transitions'")
+        _positive(path, transition_rate=self.transition_rate, transition_min=self.transition_min)
+        _require(f"{path}.max_slope", self.max_slope, _number(self.max_slope) and 0 < self.max_slope < math.pi / 2,
+                 "must be an angle in (0, pi/2) rad")
+        _require(f"{path}.level_snap", self.level_snap,
+                 _number(self.level_snap) and 0 <= self.level_snap < self.max_slope,
+                 "must be an angle from 0 to max_slope, rad")
 
 
 @dataclass(frozen=True)

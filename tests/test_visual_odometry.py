@@ -68,8 +68,9 @@ def test_height_rate_from_a_pitching_view(rows):
     """The view tilts by ``rows`` per frame (content moving down: nose up); the climb rate must be the
     measured speed times the sine of the integrated pitch."""
     vertical_fov = math.radians(64)
-    config = VisualOdometryConfig(planar_motion="profile", pitch_leak=0.0, pitch_flow_bias=0.0, climb_scale=1.0,
-                                  max_climb_rate=10.0, height_region=Region(0.1, 0.9, 0.1, 0.9), max_row_shift=0.25)
+    config = VisualOdometryConfig(planar_motion="profile", height_model="profile", pitch_leak=0.0,
+                                  pitch_flow_bias=0.0, climb_scale=1.0, max_climb_rate=10.0,
+                                  height_region=Region(0.1, 0.9, 0.1, 0.9), max_row_shift=0.25)
     odometry = VisualOdometry(config, horizontal_fov=math.radians(80), vertical_fov=vertical_fov)
     angle_per_row = 2 * math.tan(vertical_fov / 2) / HEIGHT
     motions = [odometry.step(frame, 0.1) for frame in frames(0, rows, 16)]

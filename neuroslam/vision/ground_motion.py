@@ -33,11 +33,35 @@ import math
 import numpy as np
 from scipy.ndimage import gaussian_filter
 
-__all__ = ["GroundMotion"]
+__all__ = ["GroundMotion", "blurred_with_gradients", "sample_bilinear"]
 
 _PRIOR_DISTANCE = 0.02  # m per frame, s_d of eq. G3 (a 1.5 m/s^2 drive changes speed ~0.015 m per frame at 10 Hz)
 _PRIOR_TURN = 0.05  # rad per frame, s_w of eq. G3
 _LOST_SUPPORT = 0.8  # below this share of floor pixels still in view, the solution is suspect
+
+
+def blurred_with_gradients(image: np.ndarray, smoothing: float) -> np.ndarray:
+    """(3, rows, columns) float32: the image blurred by a Gaussian of ``smoothing`` pixels, and its
+    horizontal and vertical central-difference gradients."""
+    blurred = gaussian_filter(np.asarray(image, dtype=np.float32), smoothing)
+    gradient_v, gradient_u = np.gradient(blurred)
+    return np.stack([blurred, gradient_u, gradient_v])
+
+
+def sample_bilinear(stack: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Bilinear samples of every channel of ``stack`` (channels, rows, columns) at pixel positions (u, v)
+    (column, row), clamped to the image; returns (channels, N)."""
+    channels, rows, columns = stack.shape
+    u = np.clip(u, 0, columns - 1.001)
+    v = np.clip(v, 0, rows - 1.001)
+    u0, v0 = u.astype(np.intp), v.astype(np.intp)
+    fu, fv = u - u0, v - v0
+    flat = stack.reshape(channels, -1)
+    corner = v0 * columns + u0
+    top_left, top_right = flat[:, corner], flat[:, corner + 1]
+    bottom_left, bottom_right = flat[:, corner + columns], flat[:, corner + columns + 1]
+    top = top_left + fu * (top_right - top_left)
+    return top + fv * (bottom_left + fu * (bottom_right - bottom_left) - top)
 
 
 class GroundMotion:
@@ -74,6 +98,11 @@ class GroundMotion:
         self._previous: list[np.ndarray] | None = None
         self._geometry: dict[tuple[int, int], tuple] = {}
 
+    @property
+    def finest(self) -> np.ndarray | None:
+        """The last image at full resolution, blurred, with its gradients: (3, rows, columns), or None."""
+        return None if self._previous is None else self._previous[-1]
+
     def state_dict(self) -> dict[str, np.ndarray]:
         """The last frame's motion, support and image pyramid, for saving."""
         state = {"motion": self.motion.copy(), "support": np.float64(self.support)}
@@ -103,9 +132,7 @@ class GroundMotion:
             factor = 2**level
             rows, columns = (full.shape[0] // factor) * factor, (full.shape[1] // factor) * factor
             reduced = full[:rows, :columns].reshape(rows // factor, factor, columns // factor, factor).mean(axis=(1, 3))
-            blurred = gaussian_filter(reduced, self.smoothing)
-            gradient_v, gradient_u = np.gradient(blurred)  # central differences
-            images.append(np.stack([blurred, gradient_u, gradient_v]))
+            images.append(blurred_with_gradients(reduced, self.smoothing))
         return images
 
     def _floor(self, shape: tuple[int, int]) -> tuple:
@@ -157,7 +184,6 @@ class GroundMotion:
         focal, centre_u, centre_v, indices, ground = self._floor(new.shape[1:])
         rows, columns = old.shape[1:]
         target = new[0].ravel()[indices]
-        flat = old.reshape(3, -1)
         qx, qy = ground
         h, a = self.camera_height, self.camera_forward
         prior_distance, prior_turn = float(prior[0]), float(prior[1])
@@ -175,15 +201,7 @@ class GroundMotion:
             u = centre_u - focal * py * inverse  # eq. G1
             v = centre_v + focal * h * inverse
             visible &= (u >= 0) & (u <= limit_u) & (v >= 0) & (v <= limit_v)
-            np.clip(u, 0, limit_u, out=u)
-            np.clip(v, 0, limit_v, out=v)
-            u0, v0 = u.astype(np.intp), v.astype(np.intp)
-            fu, fv = u - u0, v - v0
-            corner = v0 * columns + u0
-            top_left, top_right = flat[:, corner], flat[:, corner + 1]
-            bottom_left, bottom_right = flat[:, corner + columns], flat[:, corner + columns + 1]
-            top = top_left + fu * (top_right - top_left)
-            intensity, gradient_u, gradient_v = top + fv * (bottom_left + fu * (bottom_right - bottom_left) - top)
+            intensity, gradient_u, gradient_v = sample_bilinear(old, u, v)
             residual = intensity - target
             # chain rule through eq. G1 and G2
             d_py = -focal * gradient_u * inverse

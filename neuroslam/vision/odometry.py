@@ -11,13 +11,18 @@
 - With ``planar_motion = "ground"`` (the default of the ``sim`` preset) the speed and the yaw come instead
   from aligning the floor below the horizon under a ground-plane model (:mod:`.ground_motion`, eqs.
   G1–G3): metric from the camera height, the same in every scene.
-- Height (eqs. 31–32, measured rather than switched from ground truth): the height region, offset by
-  the yaw shift, is matched against the previous frame's by the vertical shift minimising the mean
-  absolute difference (eq. 31 over the whole region rather than its row profile, which measured too
-  noisy in the testbed: correlation with the true pitch change 0.50 against 0.84). The shift times the
-  angle per row is the change of pitch (content moving down: nose up), less ``pitch_flow_bias`` per
-  metre driven (forward motion itself moves the floor down the image). The integrated pitch, slowly
-  leaked back to level, times the distance is the climb.
+- Height with ``height_model = "transitions"`` (the default of the ``sim`` preset): the pitch change
+  from aligning consecutive images under a pure rotation (eqs. R1–R2 of :mod:`.pitch`), taken only as
+  whole transitions between level floors and ramps (eq. R3). On a transition frame the floor is not one
+  plane, so the yaw is the rotation alignment's and the distance the previous frame's (the speed does not
+  change over a ramp's foot); elsewhere both come from the floor (eqs. G1–G3).
+- Height with ``height_model = "profile"`` (eqs. 31–32, measured rather than switched from ground
+  truth): the height region, offset by the yaw shift, is matched against the previous frame's by the
+  vertical shift minimising the mean absolute difference (eq. 31 over the whole region rather than its
+  row profile, which measured too noisy in the testbed: correlation with the true pitch change 0.50
+  against 0.84). The shift times the angle per row is the change of pitch (content moving down: nose
+  up), less ``pitch_flow_bias`` per metre driven (forward motion itself moves the floor down the image).
+  The integrated pitch, slowly leaked back to level, times the distance is the climb.
 """
 
 from __future__ import annotations
@@ -30,7 +35,8 @@ import numpy as np
 
 from ..config import VisualOdometryConfig
 from ..errors import InvalidInputError, InvalidParameterError
-from .ground_motion import GroundMotion
+from .ground_motion import GroundMotion, blurred_with_gradients
+from .pitch import LevelTransitions, RotationAlignment
 from .preprocessing import crop, resize
 
 __all__ = ["SelfMotion", "VisualOdometry", "best_shift", "vertical_shift"]
@@ -113,6 +119,11 @@ class VisualOdometry:
         config: odometry parameters (Table 9).
         horizontal_fov, vertical_fov: the camera's fields of view, rad.
         panoramic: columns wrap around.
+
+    Attributes:
+        pitch: the current pitch estimate, rad (nose up positive).
+        transitions: with ``height_model = "transitions"``, the :class:`~.pitch.LevelTransitions` that hold the
+            pitch between ramps' feet and tops (eq. R3); None otherwise.
     """
 
     def __init__(self, config: VisualOdometryConfig = VisualOdometryConfig(), *,
@@ -134,6 +145,19 @@ class VisualOdometry:
                                             "needs a pinhole camera; use 'profile' for a panorama")
             self._ground = GroundMotion(horizontal_fov=horizontal_fov, camera_height=config.camera_height,
                                         camera_forward=config.camera_forward)
+        self._alignment = self.transitions = None
+        self._distance = 0.0  # m, the last distance measured off a transition (used across one)
+        self._finest: np.ndarray | None = None  # the last image blurred, with gradients (eqs. R1–R2)
+        if config.height_model == "transitions":
+            if panoramic:
+                raise InvalidParameterError("odometry.height_model", config.height_model,
+                                            "needs a pinhole camera; use 'profile' for a panorama")
+            region = config.height_region
+            self._alignment = RotationAlignment(horizontal_fov=horizontal_fov,
+                                                region=(region.top, region.bottom, region.left, region.right))
+            self.transitions = LevelTransitions(transition_rate=config.transition_rate,
+                                                 transition_min=config.transition_min, max_slope=config.max_slope,
+                                                 level_snap=config.level_snap)
 
     def state_dict(self) -> dict[str, np.ndarray]:
         """The integrated pitch and the previous frame's profiles (and floor pyramid), for saving."""
@@ -142,6 +166,13 @@ class VisualOdometry:
             state[f"previous.{name}"] = profile.copy()
         if self._ground is not None:
             state.update({f"ground.{key}": value for key, value in self._ground.state_dict().items()})
+        if self.transitions is not None:
+            if self._ground is None and self._finest is not None:
+                state["transitions.previous"] = self._finest.copy()
+            state.update({"transitions.pitch": np.float64(self.transitions.pitch),
+                          "transitions.run": np.float64(self.transitions.run),
+                          "transitions.distance": np.float64(self._distance),
+                          "transitions.yaw": np.float64(self._alignment.yaw)})
         return state
 
     def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
@@ -153,8 +184,21 @@ class VisualOdometry:
         has_ground = any(key.startswith("ground.") for key in state)
         if has_ground != (self._ground is not None):
             raise ValueError("the floor-alignment state does not match odometry.planar_motion")
+        has_transitions = any(key.startswith("transitions.") for key in state)
+        if has_transitions and self.transitions is None:
+            raise ValueError("the transition state does not match odometry.height_model")
         if self._ground is not None:
             self._ground.load_state_dict({key[7:]: value for key, value in state.items() if key.startswith("ground.")})
+        if self.transitions is not None:  # a map saved before height_model existed starts them afresh
+            self.transitions.pitch = float(state.get("transitions.pitch", 0.0))
+            self.transitions.run = float(state.get("transitions.run", 0.0))
+            self._distance = float(state.get("transitions.distance", 0.0))
+            self._alignment.yaw = float(state.get("transitions.yaw", 0.0))
+            if self._ground is not None:
+                self._finest = self._ground.finest
+            else:
+                previous = state.get("transitions.previous")
+                self._finest = None if previous is None else np.asarray(previous, dtype=np.float32).copy()
         self.pitch = float(state["pitch"])
         self._previous = ({name: np.asarray(state[f"previous.{name}"]).copy() for name in names}
                           if all(present) else None)
@@ -200,13 +244,19 @@ class VisualOdometry:
         profiles = self._profiles(grey_image)
         previous, self._previous = self._previous, profiles
         ground = None if self._ground is None else self._ground.step(grey_image)
+        finest_before = self._finest
+        if self._alignment is not None:
+            self._finest = self._ground.finest if ground is not None else blurred_with_gradients(grey_image, 1.0)
         if previous is None or dt <= 0:
             return SelfMotion(0.0, 0.0, 0.0)
         config = self.config
         width = config.profile_width
-        max_columns = max(1, int(round(config.max_column_shift * width)))
-        # the profile shift also aligns the height region (eqs. 31–32) when the planar motion comes from the floor
-        column_shift, _ = best_shift(previous["rotation"], profiles["rotation"], max_columns, circular=self.panoramic)
+        column_shift = 0.0
+        if ground is None or self.transitions is None:
+            # eqs. 27–29; the profile shift also aligns the height region (eqs. 31–32)
+            max_columns = max(1, int(round(config.max_column_shift * width)))
+            column_shift, _ = best_shift(previous["rotation"], profiles["rotation"], max_columns,
+                                         circular=self.panoramic)
         if ground is not None:  # eqs. G1–G3 instead of eqs. 27–30 for the planar motion
             ground_distance, ground_turn = ground
             distance = float(np.clip(config.speed_scale * ground_distance, -config.max_speed * dt,
@@ -226,6 +276,8 @@ class VisualOdometry:
                 overlap_old = a[max(-whole, 0): width + min(-whole, 0)]
                 difference = float(np.abs(overlap_new - overlap_old).mean())
             distance = min(config.speed_scale * difference, config.max_speed * dt)
+        if self.transitions is not None:
+            return self._height_from_transitions(finest_before, distance, yaw_change, dt)
 
         # eqs. 31–32: the region over the columns both frames share after the yaw shift
         old, new = previous["height"], profiles["height"]
@@ -248,3 +300,19 @@ class VisualOdometry:
         climb = float(np.clip(climb, -config.max_climb_rate * dt, config.max_climb_rate * dt))
         return SelfMotion(distance / dt, yaw_change / dt, climb / dt)
 
+
+    def _height_from_transitions(self, finest_before: np.ndarray | None, distance: float, yaw_change: float,
+                                 dt: float) -> SelfMotion:
+        """The frame's motion with ``height_model = "transitions"``: the pitch by eqs. R1–R3; on a transition
+        frame the aligned yaw and the last distance measured off one replace the planar estimates."""
+        config = self.config
+        if finest_before is not None:
+            aligned_yaw, pitch_change = self._alignment.step(finest_before, self._finest, yaw_change)
+            if self.transitions.step(pitch_change, dt):
+                distance = self._distance
+                yaw_change = float(np.clip(aligned_yaw, -config.max_yaw_rate * dt, config.max_yaw_rate * dt))
+            else:
+                self._distance = distance
+        self.pitch = self.transitions.current
+        climb = float(np.clip(distance * math.sin(self.pitch), -config.max_climb_rate * dt, config.max_climb_rate * dt))
+        return SelfMotion(distance / dt, yaw_change / dt, climb / dt)

@@ -1,0 +1,211 @@
+"""Pitch from the camera alone: the rotation between frames by direct alignment, and level floors joined by
+ramps.
+
+Neither is in the NeuroSLAM paper; together they replace eqs. 31–32's height when
+``odometry.height_model = "transitions"`` (the ``sim`` preset's default). Eq. 31's row shift, integrated
+frame after frame, drifts: forward motion alone moves the image vertically by a scene-dependent amount
+(0.002–0.024 rad per metre on the testbed's worlds), and a turn close to a wall reads as tens of degrees of
+pitch. Both are removed here.
+
+**Rotation alignment** (eqs. R1–R2). A camera that turns by ``psi`` (yaw, left positive) and pitches by
+``theta`` (nose up positive) between two frames sees the ray ``r = (x, y, f)`` of a current pixel (x right,
+y down, from the image centre; f the focal length in pixels) along ``R_yaw(psi) R_pitch(theta) r`` in the
+previous camera, whatever its depth. Forward motion adds a flow away from the image centre; over the
+central part of the image it is modelled as one expansion ``e``. The previous pixel is
+
+    p = (1 - e) f (r'_x / r'_z, r'_y / r'_z),    r' = R_yaw(psi) R_pitch(theta) r                  (R1)
+
+and (psi, theta, e) minimise the robust (Huber) photometric error over the central region
+
+    E(psi, theta, e) = sum_q rho(I_prev(p(q)) - I_now(q))                                          (R2)
+
+by Gauss–Newton from the previous frame's yaw, and also from the floor's yaw (eq. G3) when the two
+differ, keeping the lower error. Being a rotation, the pitch is exact for any depth; where the floor
+bends (the foot and the top of a ramp) the plane model of eq. G3 fails and this yaw is the one to use.
+
+**Level floors joined by ramps** (eq. R3). Multi-storey car parks and buildings have level floors joined
+by ramps of constant slope: the pitch is piecewise constant and changes only where the robot rolls over a
+ramp's foot or top, quickly (about 10° over the robot's length). Such a *transition* is a run of frames
+whose pitch change exceeds ``transition_rate`` (rad/s) with one sign; when it ends its total is added to
+the pitch,
+
+    theta_after = theta_before + sum over the run of delta theta                                   (R3)
+
+if the total is at least ``transition_min`` and the new pitch no steeper than ``max_slope`` (a turn near
+a textureless wall can still read as a large pitch change; no ramp is that steep); a new pitch within
+``level_snap`` of level is level (the up and down transitions of a ramp, each measured within about
+10 %, cancel to within a degree or two). Between transitions the pitch holds, so no drift accumulates
+on level floors or along a ramp. Measured on two laps of each of the six worlds of the testbed (before
+the SLAM): every one of the 8–16 transitions found, none false, height within 0.2–0.6 m RMS of the truth.
+Slopes that change gradually (a curved ramp) are not followed: that is the model's limit.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .ground_motion import sample_bilinear
+
+__all__ = ["LevelTransitions", "RotationAlignment"]
+
+_DAMPING = 1e-2  # Tikhonov term added to the Gauss–Newton normal equations (intensity² · rad⁻²)
+_MIN_SUPPORT = 0.5  # below this share of the region's pixels still in the previous image, no solution
+_RETRY = math.radians(1)  # a second start from the floor's yaw when it differs from the previous yaw by more
+
+
+class RotationAlignment:
+    """The camera's yaw and pitch change between consecutive images (eqs. R1–R2).
+
+    Args:
+        horizontal_fov: the camera's horizontal field of view, rad (square pixels assumed).
+        region: (top, bottom, left, right) of the aligned region, fractions of the image.
+        robust_scale: Huber threshold on the intensity residual (images in [0, 1]).
+        iterations: most Gauss–Newton iterations (stops once an update is below 1e-5 in every parameter).
+    """
+
+    def __init__(self, *, horizontal_fov: float, region: tuple[float, float, float, float] = (0.2, 0.8, 0.1, 0.9),
+                 robust_scale: float = 0.05, iterations: int = 8):
+        self.horizontal_fov = horizontal_fov
+        self.region = region
+        self.robust_scale = robust_scale
+        self.iterations = iterations
+        self.yaw = 0.0  # rad, the last frame's aligned yaw change (the next frame's first start)
+        self._pixels: dict[tuple[int, int], tuple] = {}
+
+    def _grid(self, shape: tuple[int, int]) -> tuple:
+        """Per image size: focal length, the region's pixels (flat indices) and their centred coordinates."""
+        cached = self._pixels.get(shape)
+        if cached is not None:
+            return cached
+        rows, columns = shape
+        top, bottom, left, right = self.region
+        step = 2 if columns > 100 else 1
+        v, u = np.mgrid[int(top * rows): max(int(bottom * rows), int(top * rows) + 1): step,
+                        int(left * columns): max(int(right * columns), int(left * columns) + 1): step]
+        u, v = u.ravel(), v.ravel()
+        focal = (columns / 2) / math.tan(self.horizontal_fov / 2)
+        x = (u - (columns / 2 - 0.5)).astype(np.float64)
+        y = (v - (rows / 2 - 0.5)).astype(np.float64)
+        cached = (focal, v * columns + u, x, y)
+        self._pixels[shape] = cached
+        return cached
+
+    def step(self, previous: np.ndarray, current: np.ndarray, floor_yaw: float) -> tuple[float, float]:
+        """(yaw change, pitch change), rad, from the previous to the current image.
+
+        ``previous`` and ``current`` are (3, rows, columns) stacks of a blurred grey image and its
+        horizontal and vertical gradients (the finest level of :class:`~.ground_motion.GroundMotion`'s
+        pyramid); ``floor_yaw`` is eq. G3's yaw change for the same frame (a second start).
+        """
+        starts = [self.yaw]
+        if abs(floor_yaw - self.yaw) > _RETRY:
+            starts.append(floor_yaw)
+        best = None
+        for start in starts:
+            solution = self._solve(previous, current, start)
+            if best is None or solution[1] < best[1]:
+                best = solution
+        (yaw, pitch, _), cost = best
+        if not math.isfinite(cost):
+            yaw, pitch = floor_yaw, 0.0
+        self.yaw = yaw
+        return yaw, pitch
+
+    def _solve(self, previous: np.ndarray, current: np.ndarray, yaw: float) -> tuple[np.ndarray, float]:
+        """Gauss–Newton on eq. R2 from (yaw, 0, 0); returns the parameters and the mean Huber cost."""
+        focal, indices, x, y = self._grid(current.shape[1:])
+        target = current[0].ravel()[indices]
+        parameters = np.array([yaw, 0.0, 0.0])  # psi, theta, e
+        for _ in range(self.iterations):
+            residual, visible, jacobian = self._linearise(previous, target, parameters, focal, x, y)
+            size = np.abs(residual)
+            weight = self.robust_scale / np.maximum(size, self.robust_scale) * visible
+            weighted = jacobian * weight
+            normal = weighted @ jacobian.T + _DAMPING * np.eye(3)
+            update = -np.linalg.solve(normal, weighted @ residual)
+            parameters += update
+            if np.abs(update).max() < 1e-5:
+                break
+        residual, visible, _ = self._linearise(previous, target, parameters, focal, x, y, jacobian=False)
+        if visible.mean() < _MIN_SUPPORT:
+            return parameters, math.inf
+        size = np.abs(residual[visible])
+        scale = self.robust_scale
+        return parameters, float(np.mean(np.where(size < scale, 0.5 * size**2, scale * (size - 0.5 * scale))))
+
+    @staticmethod
+    def _linearise(previous: np.ndarray, target: np.ndarray, parameters: np.ndarray, focal: float, x: np.ndarray,
+                   y: np.ndarray, *, jacobian: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Residuals of eq. R2, which pixels land inside the previous image, and the Jacobian (3, N)."""
+        yaw, pitch, expansion = parameters
+        cy, sy, cp, sp = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
+        # r' = R_yaw R_pitch (x, y, f): pitch about the camera's x axis (nose up sends the forward ray to -y),
+        # then yaw about its vertical axis (a left turn sends the forward ray to -x)
+        py, pz = cp * y - sp * focal, sp * y + cp * focal  # R_pitch r (x unchanged)
+        rx, rz = cy * x - sy * pz, sy * x + cy * pz  # R_yaw (x, py, pz)
+        inverse = 1.0 / rz
+        scale = (1.0 - expansion) * focal
+        u = scale * rx * inverse
+        v = scale * py * inverse
+        rows, columns = previous.shape[1:]
+        u_image, v_image = u + (columns / 2 - 0.5), v + (rows / 2 - 0.5)
+        visible = (u_image >= 0) & (u_image <= columns - 1.001) & (v_image >= 0) & (v_image <= rows - 1.001)
+        intensity, gradient_u, gradient_v = sample_bilinear(previous, u_image, v_image)
+        residual = intensity - target
+        if not jacobian:
+            return residual, visible, None
+        # derivatives of (rx, py, rz) and then of (u, v) = scale (rx, py) / rz
+        d_yaw = (-sy * x - cy * pz, np.zeros_like(x), cy * x - sy * pz)
+        d_pitch_y, d_pitch_z = -sp * y - cp * focal, cp * y - sp * focal
+        d_pitch = (-sy * d_pitch_z, d_pitch_y, cy * d_pitch_z)
+        rows_out = []
+        for d_rx, d_py, d_rz in (d_yaw, d_pitch):
+            du = scale * (d_rx - rx * inverse * d_rz) * inverse
+            dv = scale * (d_py - py * inverse * d_rz) * inverse
+            rows_out.append(gradient_u * du + gradient_v * dv)
+        rows_out.append(-(gradient_u * rx + gradient_v * py) * focal * inverse)  # d/de
+        return residual, visible, np.stack(rows_out)
+
+
+class LevelTransitions:
+    """Piecewise-constant pitch from per-frame pitch changes (eq. R3).
+
+    Args:
+        transition_rate: pitch change per second above which a frame belongs to a transition, rad/s.
+        transition_min: smallest total of a transition, rad.
+        max_slope: steepest slope; a transition that would leave the pitch steeper is refused, rad.
+        level_snap: a pitch this close to level after a transition is level, rad.
+    """
+
+    def __init__(self, *, transition_rate: float, transition_min: float, max_slope: float, level_snap: float):
+        self.transition_rate = transition_rate
+        self.transition_min = transition_min
+        self.max_slope = max_slope
+        self.level_snap = level_snap
+        self.pitch = 0.0  # rad, the pitch before the transition in progress
+        self.run = 0.0  # rad, the pitch change of the transition in progress (0: none)
+
+    @property
+    def current(self) -> float:
+        """The pitch now, rad: with the transition in progress while it stays within ``max_slope``."""
+        pitch = self.pitch + self.run
+        return pitch if abs(pitch) <= self.max_slope else self.pitch
+
+    def step(self, pitch_change: float, dt: float) -> bool:
+        """Take one frame's pitch change (rad, over ``dt`` seconds); True when the frame is in a transition."""
+        moving = abs(pitch_change) > self.transition_rate * dt
+        if moving and (self.run == 0.0 or (self.run > 0) == (pitch_change > 0)):
+            self.run += pitch_change
+            return True
+        self._commit()
+        self.run = pitch_change if moving else 0.0
+        return moving
+
+    def _commit(self) -> None:
+        """End the transition in progress: eq. R3."""
+        run, self.run = self.run, 0.0
+        pitch = self.pitch + run
+        if abs(run) >= self.transition_min and abs(pitch) <= self.max_slope:
+            self.pitch = 0.0 if abs(pitch) < self.level_snap else pitch

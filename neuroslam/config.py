@@ -419,6 +419,10 @@ class ExperienceMapConfig:
             ``confirmation_tolerance`` plus this times that distance of the current estimate.
         confirmation_climb_error: m of height per m driven: the same for heights (the visual odometry's
             height drifts faster than its position), and how far the window's heights may disagree.
+        closure_weight: weight of a loop-closure link's squared errors in the least-squares map, relative to
+            a link made by driving (1: all alike). A closure puts the robot on a remembered experience
+            that it may pass up to ``confirmation_tolerance`` away from; a link driven between two
+            experiences is accurate to centimetres.
     """
 
     view_weight: float = 10.0
@@ -437,6 +441,7 @@ class ExperienceMapConfig:
     confirmation_age: float = 30.0
     confirmation_drift: float = 0.1
     confirmation_climb_error: float = 0.3
+    closure_weight: float = 1.0
 
     def __post_init__(self) -> None:
         self.validate()
@@ -462,7 +467,7 @@ class ExperienceMapConfig:
         _require(f"{path}.confirmation_matches", matches,
                  isinstance(matches, int) and 1 <= matches <= (window if isinstance(window, int) else 1000),
                  "must be an integer from 1 to confirmation_window")
-        _positive(path, confirmation_tolerance=self.confirmation_tolerance)
+        _positive(path, confirmation_tolerance=self.confirmation_tolerance, closure_weight=self.closure_weight)
         _non_negative(path, confirmation_age=self.confirmation_age, confirmation_drift=self.confirmation_drift,
                       confirmation_climb_error=self.confirmation_climb_error,
                       confirmation_spacing=self.confirmation_spacing)

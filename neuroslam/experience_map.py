@@ -39,6 +39,7 @@ _STATE_ARRAYS = {
     "direction_codes": ("_direction_codes", 2, np.float64), "template_ids": ("_templates", 0, np.int64),
     "creation_times": ("_times", 0, np.float64), "links": ("_links", 2, np.int64),
     "link_poses": ("_link_poses", 4, np.float64), "link_times": ("_link_times", 0, np.float64),
+    "link_weights": ("_link_weights", 0, np.float64),
     "degree": ("_degree", 0, np.int64), "components": ("_components", 0, np.int64),
     "sessions": ("_sessions", 0, np.int64),
 }
@@ -129,6 +130,7 @@ class ExperienceMap:
         self._links = _Growing(2, np.int64)
         self._link_poses = _Growing(4, np.float64)  # distance, heading, facing, height change
         self._link_times = _Growing(0, np.float64)
+        self._link_weights = _Growing(0, np.float64)  # of each link's errors in the least-squares map
         self._degree = _Growing(0, np.int64)
         self._components = _Growing(0, np.int64)  # which connected map each experience belongs to
         self._sessions = _Growing(0, np.int64)  # which session made each experience
@@ -215,15 +217,18 @@ class ExperienceMap:
         """Restore :meth:`state_dict`'s output. Raises ValueError when it is inconsistent."""
         grown = {}
         for name, (attribute, columns, dtype) in _STATE_ARRAYS.items():
+            rows = state.get(name)
+            if rows is None and name == "link_weights" and "links" in state:  # maps saved before weights: all 1
+                rows = np.ones(len(state["links"]))
             try:
-                grown[attribute] = _Growing.of(state[name], columns, dtype)
+                grown[attribute] = _Growing.of(rows if rows is not None else state[name], columns, dtype)
             except ValueError as error:
                 raise ValueError(f"{name}: {error}") from None
         size, links = grown["_poses"].count, grown["_links"].view
         if any(grown[attribute].count != size for attribute in ("_grid_codes", "_direction_codes", "_templates",
                                                                  "_times", "_degree", "_components", "_sessions")):
             raise ValueError("the per-experience arrays differ in length")
-        if any(grown[attribute].count != len(links) for attribute in ("_link_poses", "_link_times")):
+        if any(grown[attribute].count != len(links) for attribute in ("_link_poses", "_link_times", "_link_weights")):
             raise ValueError("the per-link arrays differ in length")
         if len(links) and (links.min() < 0 or links.max() >= size):
             raise ValueError("a link names an experience that does not exist")
@@ -303,7 +308,7 @@ class ExperienceMap:
         joined = links[:, 0] != links[:, 1]
         for name, (attribute, columns, dtype) in _STATE_ARRAYS.items():
             rows = getattr(self, attribute).view
-            if name in ("links", "link_poses", "link_times"):
+            if name in ("links", "link_poses", "link_times", "link_weights"):
                 rows = (links if name == "links" else rows)[joined]
             elif name != "degree":
                 rows = rows[keep]
@@ -441,7 +446,7 @@ class ExperienceMap:
             expected = self._compose(self.poses[previous], self.relative)
             error = expected - self.poses[best]
             error[3] = float(_wrap(error[3]))
-            self._link(previous, best, time)
+            self._link(previous, best, time, weight=self.config.closure_weight)
             self.loop_closures += 1
             trigger = LEAST_SQUARES_TRIGGER if self.config.relaxation == "least-squares" else SETTLED
             if np.abs(error).max() >= trigger:
@@ -465,8 +470,9 @@ class ExperienceMap:
         self._sessions.append(self.session)
         self.current = self.size - 1
 
-    def _link(self, source: int, target: int, time: float) -> None:
-        """Link ``source`` → ``target`` with the odometry accumulated since ``source`` (eq. 23)."""
+    def _link(self, source: int, target: int, time: float, *, weight: float = 1.0) -> None:
+        """Link ``source`` → ``target`` with the odometry accumulated since ``source`` (eq. 23); ``weight``
+        scales its squared errors in the least-squares map."""
         dx, dy, dz, dyaw = self.relative
         distance = math.hypot(dx, dy)
         heading = math.atan2(dy, dx) if distance > 0 else 0.0
@@ -474,6 +480,7 @@ class ExperienceMap:
         self._link_poses.append((distance, heading, float(_wrap(dyaw)), dz))
         # seconds on the session's clock; a link from an experience of an earlier session records 0
         self._link_times.append(time - self.creation_times[source] if self.sessions[source] == self.session else 0.0)
+        self._link_weights.append(weight)
         self._degree.data[source] += 1
         self._degree.data[target] += 1
         self._linked.add((source, target))
@@ -516,6 +523,8 @@ class ExperienceMap:
         sources, targets = local[self.links[inside, 0]], local[self.links[inside, 1]]
         distance, heading, facing, height = self.link_poses[inside].T
         count = len(sources)
+        root_weight = np.sqrt(self._link_weights.view[inside])
+        tiled_weight = np.tile(root_weight, 10)  # one per Jacobian entry below
         poses = self._poses.data[members]
         rows = np.arange(count)
         ones = np.ones(count)
@@ -524,9 +533,10 @@ class ExperienceMap:
             direction = poses[sources, 3] + heading
             cos, sin = distance * np.cos(direction), distance * np.sin(direction)
             return np.concatenate([
-                poses[sources, 0] + cos - poses[targets, 0], poses[sources, 1] + sin - poses[targets, 1],
-                poses[sources, 2] + height - poses[targets, 2],
-                _wrap(poses[sources, 3] + facing - poses[targets, 3])]), cos, sin
+                (poses[sources, 0] + cos - poses[targets, 0]) * root_weight,
+                (poses[sources, 1] + sin - poses[targets, 1]) * root_weight,
+                (poses[sources, 2] + height - poses[targets, 2]) * root_weight,
+                _wrap(poses[sources, 3] + facing - poses[targets, 3]) * root_weight]), cos, sin
 
         residual, cos, sin = residual_at(poses)
         cost = float(residual @ residual)
@@ -537,7 +547,7 @@ class ExperienceMap:
             columns = np.concatenate([4 * sources, 4 * targets, 4 * sources + 3, 4 * sources + 1, 4 * targets + 1,
                                       4 * sources + 3, 4 * sources + 2, 4 * targets + 2, 4 * sources + 3,
                                       4 * targets + 3])
-            values = np.concatenate([ones, -ones, -sin, ones, -ones, cos, ones, -ones, ones, -ones])
+            values = np.concatenate([ones, -ones, -sin, ones, -ones, cos, ones, -ones, ones, -ones]) * tiled_weight
             # the first experience stays where it is: its columns leave the system (a stiff prior on it
             # instead would make the normal equations too ill-conditioned to solve on long chains)
             jacobian = scipy.sparse.csc_matrix((values, (jacobian_rows, columns)), shape=(4 * count, 4 * n))[:, 4:]

@@ -441,7 +441,7 @@ class ExperienceMapConfig:
     confirmation_age: float = 30.0
     confirmation_drift: float = 0.1
     confirmation_climb_error: float = 0.3
-    closure_weight: float = 1.0
+    closure_weight: float = 0.1
 
     def __post_init__(self) -> None:
         self.validate()

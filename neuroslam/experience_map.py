@@ -196,6 +196,12 @@ class ExperienceMap:
         return self._sessions.view
 
     @property
+    def link_weights(self) -> np.ndarray:
+        """(L,) weight of each link's squared errors in the least-squares map (1 for a driven link,
+        ``closure_weight`` for a loop closure's)."""
+        return self._link_weights.view
+
+    @property
     def link_times(self) -> np.ndarray:
         """(L,) seconds between leaving the source and reaching the target."""
         return self._link_times.view
@@ -501,7 +507,9 @@ class ExperienceMap:
         experiences it needs of the order of n² passes to spread a loop's error (a 1,500-experience lap
         keeps almost all of it after thousands of passes), so a map relaxed by passes still has the
         shape of the odometry; and its passes settle short of the minimum, because they ignore how a
-        source's yaw moves its target. Here that sum is minimised directly: residuals
+        source's yaw moves its target. Here that sum is minimised directly, each link's squared errors
+        times its weight (``closure_weight`` for a loop closure's link, whose target the robot may have
+        passed up to a metre away; 1 for a driven link, accurate to centimetres): residuals
 
             r_xy = p_source + distance · (cos, sin)(yaw_source + heading) − p_target,
             r_z = z_source + height − z_target,   r_yaw = wrap(yaw_source + facing − yaw_target),

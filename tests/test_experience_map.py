@@ -78,16 +78,18 @@ def test_matching_prefers_the_same_view_at_the_same_place():
     assert experience_map.scores(5, np.array([35.5, 1.0, 0.0]), np.zeros(2))[0] == pytest.approx(1.5)
 
 
-def _link_cost(poses, links, link_poses):
-    """Eq. 25's objective, written out independently: squared link errors (x, y, z in m, yaw in rad)."""
+def _link_cost(poses, links, link_poses, weights=None):
+    """Eq. 25's objective, written out independently: squared link errors (x, y, z in m, yaw in rad), each
+    times its link's weight (all 1 when None)."""
     total = 0.0
-    for (source, target), (distance, heading, facing, height) in zip(links, link_poses, strict=True):
+    weights = np.ones(len(links)) if weights is None else weights
+    for (source, target), (distance, heading, facing, height), weight in zip(links, link_poses, weights, strict=True):
         direction = poses[source, 3] + heading
         dx = poses[source, 0] + distance * math.cos(direction) - poses[target, 0]
         dy = poses[source, 1] + distance * math.sin(direction) - poses[target, 1]
         dz = poses[source, 2] + height - poses[target, 2]
         dyaw = (poses[source, 3] + facing - poses[target, 3] + math.pi) % (2 * math.pi) - math.pi
-        total += dx * dx + dy * dy + dz * dz + dyaw * dyaw
+        total += weight * (dx * dx + dy * dy + dz * dz + dyaw * dyaw)
     return total
 
 
@@ -113,9 +115,11 @@ def test_least_squares_relaxation_reaches_the_minimum_of_eq_25s_link_errors():
     for _ in range(5):  # a frame runs at most 3 Gauss–Newton iterations; an unfinished solve goes on
         solved._relax(0)
     assert solved.settled
-    poses, links, link_poses = solved.poses.copy(), solved.links, solved.link_poses
+    poses, links, link_poses, weights = solved.poses.copy(), solved.links, solved.link_poses, solved.link_weights
     assert poses[0] == pytest.approx([0, 0, 0, 0], abs=1e-6)  # the first experience holds the map in place
-    cost = _link_cost(poses, links, link_poses)
+    # the driven links weigh 1, the loop closure's (the last) closure_weight
+    assert weights.tolist() == [1.0] * 7 + [solved.config.closure_weight]
+    cost = _link_cost(poses, links, link_poses, weights)
     # a minimum: no small move of any other experience lowers the cost (central differences of the gradient)
     gradient = np.zeros_like(poses)
     for index in np.ndindex(*poses.shape):
@@ -123,12 +127,12 @@ def test_least_squares_relaxation_reaches_the_minimum_of_eq_25s_link_errors():
             continue
         step = np.zeros_like(poses)
         step[index] = 1e-6
-        gradient[index] = (_link_cost(poses + step, links, link_poses)
-                           - _link_cost(poses - step, links, link_poses)) / 2e-6
+        gradient[index] = (_link_cost(poses + step, links, link_poses, weights)
+                           - _link_cost(poses - step, links, link_poses, weights)) / 2e-6
     assert np.abs(gradient).max() < 1e-4
     # the loop's error is spread over every link, not left on the closing one
-    before = _link_cost(_loop_with("passes").poses, links, link_poses)
+    before = _link_cost(_loop_with("passes").poses, links, link_poses, weights)
     assert cost < 0.2 * before
     # eq. 25's own passes, run long enough, settle at a higher cost (they ignore the yaw coupling)
     passes = _loop_with("passes", passes=1000)
-    assert cost <= _link_cost(passes.poses, links, link_poses) + 1e-9
+    assert cost <= _link_cost(passes.poses, links, link_poses, weights) + 1e-9

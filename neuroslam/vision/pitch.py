@@ -52,6 +52,7 @@ __all__ = ["LevelTransitions", "RotationAlignment"]
 
 _DAMPING = 1e-2  # Tikhonov term added to the Gauss–Newton normal equations (intensity² · rad⁻²)
 _MIN_SUPPORT = 0.5  # below this share of the region's pixels still in the previous image, no solution
+_TOLERANCE = 1e-4  # rad: an update of yaw and pitch below this (0.01 pixel) ends the iterations
 _RETRY = math.radians(1)  # a second start from the floor's yaw when it differs from the previous yaw by more
 
 
@@ -62,7 +63,8 @@ class RotationAlignment:
         horizontal_fov: the camera's horizontal field of view, rad (square pixels assumed).
         region: (top, bottom, left, right) of the aligned region, fractions of the image.
         robust_scale: Huber threshold on the intensity residual (images in [0, 1]).
-        iterations: most Gauss–Newton iterations (stops once an update is below 1e-5 in every parameter).
+        iterations: most Gauss–Newton iterations (stops once the yaw and pitch updates are below 1e-4 rad,
+            0.01 pixel).
     """
 
     def __init__(self, *, horizontal_fov: float, region: tuple[float, float, float, float] = (0.2, 0.8, 0.1, 0.9),
@@ -126,7 +128,7 @@ class RotationAlignment:
             normal = weighted @ jacobian.T + _DAMPING * np.eye(3)
             update = -np.linalg.solve(normal, weighted @ residual)
             parameters += update
-            if np.abs(update).max() < 1e-5:
+            if np.abs(update[:2]).max() < _TOLERANCE:  # the expansion is a nuisance parameter
                 break
         residual, visible, _ = self._linearise(previous, target, parameters, focal, x, y, jacobian=False)
         if visible.mean() < _MIN_SUPPORT:

@@ -129,6 +129,29 @@ def test_the_threshold_is_a_rate():
     assert all(flag for flag, _ in feed(fast, [0.8] * 5, 1 / 30))
 
 
+@pytest.mark.parametrize("planar_motion", ["ground", "profile"])
+def test_the_transition_state_saves_and_continues_exactly(planar_motion):
+    """Views pitching up by 3° a frame for four frames, then holding: the odometry's state saved in the
+    middle of the transition and loaded into a fresh one continues bit for bit (with the floor alignment's
+    images, or without it, its own)."""
+    config = VisualOdometryConfig(planar_motion=planar_motion)
+    first = scene(2)
+    views, pitch = [first], 0.0
+    for change in [0.0, 3.0, 3.0, 3.0, 3.0, 0.0, 0.0, 0.0]:
+        pitch += math.radians(change)
+        views.append(rotated(first, 0.0, pitch))
+    odometry = VisualOdometry(config, horizontal_fov=FOV)
+    for view in views[:4]:
+        odometry.step(view, 0.1)
+    copy = VisualOdometry(config, horizontal_fov=FOV)
+    copy.load_state_dict(odometry.state_dict())
+    assert odometry.transitions.run > 0  # saved mid-transition
+    for view in views[4:]:
+        assert copy.step(view, 0.1) == odometry.step(view, 0.1)
+    assert copy.state_dict().keys() == odometry.state_dict().keys()
+    assert math.degrees(odometry.pitch) == pytest.approx(12.0, abs=0.5)
+
+
 def test_panoramic_cameras_need_the_profile_height():
     with pytest.raises(InvalidParameterError, match="height_model"):
         VisualOdometry(VisualOdometryConfig(planar_motion="profile"), horizontal_fov=2 * math.pi, panoramic=True)

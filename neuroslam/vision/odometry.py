@@ -300,7 +300,6 @@ class VisualOdometry:
         climb = float(np.clip(climb, -config.max_climb_rate * dt, config.max_climb_rate * dt))
         return SelfMotion(distance / dt, yaw_change / dt, climb / dt)
 
-
     def _height_from_transitions(self, finest_before: np.ndarray | None, distance: float, yaw_change: float,
                                  dt: float) -> SelfMotion:
         """The frame's motion with ``height_model = "transitions"``: the pitch by eqs. R1–R3; on a transition

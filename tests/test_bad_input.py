@@ -167,6 +167,11 @@ BAD_SETTINGS = [  # (settings as in a file, field named, words of the reason)
     ({"experience_map": {"correction": 1.5}}, "experience_map.correction", "in (0, 1]"),
     ({"experience_map": {"relaxation": "magic"}}, "experience_map.relaxation", "must be one of"),
     ({"experience_map": {"confirmation_matches": 30}}, "experience_map.confirmation_matches", ""),
+    ({"experience_map": {"closure_weight": 0.0}}, "experience_map.closure_weight", "positive"),
+    ({"odometry": {"height_model": "sonar"}}, "odometry.height_model", "'profile' or 'transitions'"),
+    ({"odometry": {"transition_rate": -0.1}}, "odometry.transition_rate", "positive"),
+    ({"odometry": {"max_slope": 2.0}}, "odometry.max_slope", "(0, pi/2)"),
+    ({"odometry": {"level_snap": 0.5}}, "odometry.level_snap", "from 0 to max_slope"),
     ({"integrator": "magic"}, "integrator", "must be one of"),
     ({"grid_cells": 3}, "grid_cells", "table of settings"),
 ]

@@ -148,7 +148,8 @@ def _parser() -> argparse.ArgumentParser:
     calibrate = commands.add_parser(
         "calibrate", help="fit the visual-odometry gains to ground truth and write a config file",
         description="Drive a calibration route, compare the visual odometry's raw measurements with ground truth, "
-        "fit its gains (speed and yaw scale by least squares; the height pipeline by the least height error) and "
+        "fit its gains (speed and yaw scale by least squares; the height pipeline of eqs. 31-32 by the least height "
+        "error, written only with height_model = profile: the default transitions height has no gains) and "
         "write them as a TOML config file usable with --config.")
     calibrate.add_argument("world", help="built-in world name, gen:SEED, or an MJCF file")
     _drive_options(calibrate, laps=1, camera=False)
@@ -600,9 +601,11 @@ def _calibrate(args: argparse.Namespace) -> int:
     from .vision.preprocessing import grey
 
     base = _slam_from(args)[0].config
+    # the raw row-shift pitch changes are eqs. 31-32's ("profile"), whose gains are fitted; the "transitions"
+    # height (eqs. R1-R3) has none
     neutral = dataclasses.replace(base.odometry, speed_scale=1.0, yaw_scale=1.0, climb_scale=1.0,
                                   pitch_flow_bias=0.0, pitch_leak=0.0, max_speed=1e6, max_yaw_rate=1e6,
-                                  max_climb_rate=1e6)
+                                  max_climb_rate=1e6, height_model="profile")
     odometry = VisualOdometry(neutral, horizontal_fov=base.horizontal_fov, vertical_fov=base.vertical_fov,
                               panoramic=base.panoramic)
     world, route = _world_and_route(args)
@@ -627,16 +630,21 @@ def _calibrate(args: argparse.Namespace) -> int:
     fit = fit_odometry_gains(dt=table[:, 0], raw_difference=table[:, 1], raw_yaw_rate=table[:, 2],
                              raw_pitch_change=table[:, 3], true_speed=table[:, 4], true_yaw_rate=table[:, 5],
                              true_height=table[:, 6])
+    settings = fit.settings()["odometry"]
+    profile_height = base.odometry.height_model == "profile"
+    if not profile_height:
+        settings = {key: settings[key] for key in ("speed_scale", "yaw_scale")}
     lines = [f"# visual-odometry gains fitted by neuroslam calibrate on {world.name} ({len(table)} frames)",
-             "[odometry]"] + [f"{key} = {value!r}" for key, value in fit.settings()["odometry"].items()]
+             "[odometry]"] + [f"{key} = {value!r}" for key, value in settings.items()]
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text("\n".join(lines) + "\n")
     _print_rows([
         ("frames", str(len(table))),
         ("speed", f"scale {fit.speed_scale:.3f}, correlation {fit.speed_correlation:.2f}"),
         ("yaw", f"scale {fit.yaw_scale:.3f}, correlation {fit.yaw_correlation:.2f}"),
-        ("height", f"climb gain {fit.climb_scale:.2f}, pitch bias {fit.pitch_flow_bias:.4f} rad/m, "
-                   f"leak {fit.pitch_leak:.2f}/s, height error {fit.height_rmse:.2f} m"),
+        ("height", ("" if profile_height else "not written (height_model = transitions has no gains); eqs. 31-32: ")
+         + f"climb gain {fit.climb_scale:.2f}, pitch bias {fit.pitch_flow_bias:.4f} rad/m, "
+         f"leak {fit.pitch_leak:.2f}/s, height error {fit.height_rmse:.2f} m"),
         ("config", f"{args.out} (use with --config)"),
     ])
     return 0

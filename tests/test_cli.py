@@ -112,6 +112,8 @@ def test_calibrate_writes_a_config_that_loads(tmp_path, capsys):
     config = load_config(out)
     assert config.odometry.speed_scale > 0 and config.odometry.yaw_scale > 0
     assert "height error" in capsys.readouterr().out
+    # the default height (transitions) has no gains: eqs. 31-32's are reported, not written
+    assert "climb_scale" not in out.read_text() and config.odometry.height_model == "transitions"
 
 
 def test_fit_odometry_gains_recovers_known_scales():

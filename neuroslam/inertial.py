@@ -1,4 +1,4 @@
-"""The robot's pitch from an IMU's accelerometer, for the height rate (an alternative to eqs. 31–32).
+"""The robot's pitch from an IMU's accelerometer, for the height rate (an alternative to the camera's).
 
 A ground robot's accelerometer measures the specific force in its body frame (x forward, y left, z up):
 gravity's reaction, ``g (sin pitch, ·, cos pitch)`` for a nose-up pitch, plus the robot's own
@@ -8,9 +8,10 @@ read as slopes. The climb rate is then the forward speed times the sine of the p
 
 This is not in the NeuroSLAM paper, which measures the pitch from the images (eqs. 31–32); that
 measurement carries a bias from forward motion that depends on the scene's depth, and the integrated
-height drifts by metres per hundred metres on most of the testbed's worlds. A robot with an IMU (most
-have one) gets the height right this way: up the testbed's car-park ramp (3 m) within 0.16 m, with the
-wheels' speed (``tests/test_inertial.py``).
+height drifts by metres per hundred metres on most of the testbed's worlds. The camera's default height
+(:mod:`neuroslam.vision.pitch`, level floors joined by ramps) no longer drifts; the IMU also follows
+slopes that change gradually. Up the testbed's car-park ramp (3 m) this filter gets the height within
+0.16 m, with the wheels' speed (``tests/test_inertial.py``).
 """
 
 from __future__ import annotations

@@ -223,11 +223,12 @@ class ExperienceMap:
         """Restore :meth:`state_dict`'s output. Raises ValueError when it is inconsistent."""
         grown = {}
         for name, (attribute, columns, dtype) in _STATE_ARRAYS.items():
-            rows = state.get(name)
-            if rows is None and name == "link_weights" and "links" in state:  # maps saved before weights: all 1
-                rows = np.ones(len(state["links"]))
+            if name == "link_weights" and name not in state and "links" in state:
+                rows = np.ones(len(state["links"]))  # a map saved before links had weights: all alike
+            else:
+                rows = state[name]
             try:
-                grown[attribute] = _Growing.of(rows if rows is not None else state[name], columns, dtype)
+                grown[attribute] = _Growing.of(rows, columns, dtype)
             except ValueError as error:
                 raise ValueError(f"{name}: {error}") from None
         size, links = grown["_poses"].count, grown["_links"].view

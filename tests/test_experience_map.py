@@ -136,3 +136,17 @@ def test_least_squares_relaxation_reaches_the_minimum_of_eq_25s_link_errors():
     # eq. 25's own passes, run long enough, settle at a higher cost (they ignore the yaw coupling)
     passes = _loop_with("passes", passes=1000)
     assert cost <= _link_cost(passes.poses, links, link_poses, weights) + 1e-9
+
+
+def test_a_map_saved_before_links_had_weights_loads_with_all_alike():
+    """States written before ``link_weights`` existed load with every link weighing 1; a state with the
+    weights keeps them."""
+    built = _loop_with("least-squares")
+    state = built.state_dict()
+    assert state["link_weights"].tolist() == [1.0] * 7 + [built.config.closure_weight]
+    old = {name: value for name, value in state.items() if name != "link_weights"}
+    loaded = ExperienceMap(built.config, grid_size=(100, 100, 100))
+    loaded.load_state_dict(old)
+    assert loaded.link_weights.tolist() == [1.0] * 8
+    loaded.load_state_dict(state)
+    assert loaded.link_weights.tolist() == state["link_weights"].tolist()

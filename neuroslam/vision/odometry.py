@@ -14,8 +14,9 @@
 - Height with ``height_model = "transitions"`` (the default of the ``sim`` preset): the pitch change
   from aligning consecutive images under a pure rotation (eqs. R1–R2 of :mod:`.pitch`), taken only as
   whole transitions between level floors and ramps (eq. R3). On a transition frame the floor is not one
-  plane, so the yaw is the rotation alignment's and the distance the previous frame's (the speed does not
-  change over a ramp's foot); elsewhere both come from the floor (eqs. G1–G3).
+  plane, so the yaw is the rotation alignment's and the speed the last one measured off a transition (it
+  does not change over a ramp's foot; frames may be unevenly spaced); elsewhere both come from the floor
+  (eqs. G1–G3).
 - Height with ``height_model = "profile"`` (eqs. 31–32, measured rather than switched from ground
   truth): the height region, offset by the yaw shift, is matched against the previous frame's by the
   vertical shift minimising the mean absolute difference (eq. 31 over the whole region rather than its
@@ -146,7 +147,7 @@ class VisualOdometry:
             self._ground = GroundMotion(horizontal_fov=horizontal_fov, camera_height=config.camera_height,
                                         camera_forward=config.camera_forward)
         self._alignment = self.transitions = None
-        self._distance = 0.0  # m, the last distance measured off a transition (used across one)
+        self._speed = 0.0  # m/s, the last speed measured off a transition (held across one)
         self._finest: np.ndarray | None = None  # the last image blurred, with gradients (eqs. R1–R2)
         if config.height_model == "transitions":
             if panoramic:
@@ -171,7 +172,7 @@ class VisualOdometry:
                 state["transitions.previous"] = self._finest.copy()
             state.update({"transitions.pitch": np.float64(self.transitions.pitch),
                           "transitions.run": np.float64(self.transitions.run),
-                          "transitions.distance": np.float64(self._distance),
+                          "transitions.speed": np.float64(self._speed),
                           "transitions.yaw": np.float64(self._alignment.yaw)})
         return state
 
@@ -192,7 +193,7 @@ class VisualOdometry:
         if self.transitions is not None:  # a map saved before height_model existed starts them afresh
             self.transitions.pitch = float(state.get("transitions.pitch", 0.0))
             self.transitions.run = float(state.get("transitions.run", 0.0))
-            self._distance = float(state.get("transitions.distance", 0.0))
+            self._speed = float(state.get("transitions.speed", 0.0))
             self._alignment.yaw = float(state.get("transitions.yaw", 0.0))
             if self._ground is not None:
                 self._finest = self._ground.finest
@@ -303,15 +304,15 @@ class VisualOdometry:
     def _height_from_transitions(self, finest_before: np.ndarray | None, distance: float, yaw_change: float,
                                  dt: float) -> SelfMotion:
         """The frame's motion with ``height_model = "transitions"``: the pitch by eqs. R1–R3; on a transition
-        frame the aligned yaw and the last distance measured off one replace the planar estimates."""
+        frame the aligned yaw and the last speed measured off one replace the planar estimates."""
         config = self.config
         if finest_before is not None:
             aligned_yaw, pitch_change = self._alignment.step(finest_before, self._finest, yaw_change)
             if self.transitions.step(pitch_change, dt):
-                distance = self._distance
+                distance = self._speed * dt
                 yaw_change = float(np.clip(aligned_yaw, -config.max_yaw_rate * dt, config.max_yaw_rate * dt))
             else:
-                self._distance = distance
+                self._speed = distance / dt
         self.pitch = self.transitions.current
         climb = float(np.clip(distance * math.sin(self.pitch), -config.max_climb_rate * dt, config.max_climb_rate * dt))
         return SelfMotion(distance / dt, yaw_change / dt, climb / dt)

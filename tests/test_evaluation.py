@@ -52,6 +52,27 @@ def test_level_accuracy_and_false_closures():
     assert false_loop_closures(now, then, np.array([0, 0, 1]), np.array([0, 0, 0])) == 2
 
 
+def test_a_closure_on_a_ramp_is_judged_by_distance_and_one_between_floors_by_level():
+    """Floors at 0 and 1.8 m. Closure 0: two places 0.24 m apart on a ramp, either side of its half-way height
+    (labelled levels 0 and 1): the same place, true with the floors given, false by labels alone. Closure 1:
+    one floor over the other, 1.8 m apart (within 2 m): false either way. Closure 2: a ramp place 1.41 m
+    from a place on the upper floor (labelled levels 0 and 1): judged by distance, true. Closure 3: the ramp,
+    2.1 m apart: false."""
+    from neuroslam.evaluation import FLOOR_TOLERANCE, false_loop_closure_mask, false_loop_closures
+
+    now = np.array([[0, 0, 0.85], [4, 0, 0.0], [6, 0, 0.8], [0, 0, 0.5]])
+    then = np.array([[0.2, 0, 0.98], [4, 0, 1.8], [7.0, 0, 1.8], [2.0, 0, 1.14]])
+    levels_now, levels_then = np.array([0, 0, 0, 0]), np.array([1, 1, 1, 0])
+    floors = np.array([0.0, 1.8])
+    assert false_loop_closure_mask(now, then, levels_now, levels_then, floors=floors).tolist() == [
+        False, True, False, True]
+    assert false_loop_closure_mask(now, then, levels_now, levels_then).tolist() == [True, True, True, True]
+    assert false_loop_closures(now, then, levels_now, levels_then, floors=floors) == 2
+    # within the tolerance of a floor a place is on it: the ramp's foot against the floor above is false
+    foot = np.array([[4, 0, FLOOR_TOLERANCE]])
+    assert false_loop_closures(foot, np.array([[4, 0, 1.8]]), np.array([0]), np.array([1]), floors=floors) == 1
+
+
 def test_run_metrics_counts_true_closures_per_level():
     """Six frames on two levels; closures at frames 3 (back at frame 0's place: true, level 0), 4 (3 m from
     frame 1: false) and 5 (over frame 2 but one level up: false)."""
@@ -68,6 +89,15 @@ def test_run_metrics_counts_true_closures_per_level():
     assert metrics["true_loop_closures_per_level"] == {"0": 1, "1": 0}
     assert metrics["level_accuracy"] == 1.0
     assert metrics["map_rmse_m"] == 0.0 and "merges" not in metrics
+    # the same closure at frame 5, but frame 5 half-way up a ramp (1.5 m, labelled level 1) and 1.5 m from
+    # frame 2's place: on no level, judged by distance, so true; it counts for its labelled level
+    truth[5, 2] = 1.5
+    metrics = run_metrics(truth=truth, true_levels=levels, levels=np.array([0.0, 3.0]), estimate=truth,
+                          odometry=truth, experience_positions=truth[:3, :3], experience_truth=truth[:3, :3],
+                          experience_levels=levels[:3], closure_frames=np.array([3, 4, 5]),
+                          closure_truth=truth[:3, :3], closure_levels=levels[:3])
+    assert metrics["false_loop_closures"] == 1
+    assert metrics["true_loop_closures_per_level"] == {"0": 1, "1": 1}
 
 
 def test_run_metrics_scores_merges_and_a_map_with_unknown_places():

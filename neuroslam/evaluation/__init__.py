@@ -1,7 +1,16 @@
 """Evaluation against ground truth: trajectory alignment and errors, loop-closure and level scores
 (pure math, no I/O)."""
 
-from .metrics import align, false_loop_closures, level_accuracy, rpe_rmse, run_metrics
+from .metrics import (
+           FLOOR_TOLERANCE,
+           align,
+           false_loop_closure_mask,
+           false_loop_closures,
+           level_accuracy,
+           rpe_rmse,
+           run_metrics,
+)
 from .trajectory import ate_rmse, umeyama
 
-__all__ = ["align", "ate_rmse", "false_loop_closures", "level_accuracy", "rpe_rmse", "run_metrics", "umeyama"]
+__all__ = ["FLOOR_TOLERANCE", "align", "ate_rmse", "false_loop_closure_mask", "false_loop_closures",
+           "level_accuracy", "rpe_rmse", "run_metrics", "umeyama"]

@@ -13,7 +13,13 @@ import numpy as np
 
 from .trajectory import umeyama
 
-__all__ = ["align", "false_loop_closures", "level_accuracy", "rpe_rmse", "run_metrics"]
+#: A place is on a level when its true height is within this of the level's floor (m). The robot's base rests
+#: 1 mm below a floor's height; on the testbed's ramps (at most 15°) 0.1 m of height is at most 0.37 m along
+#: the ramp from its foot.
+FLOOR_TOLERANCE = 0.1
+
+__all__ = ["FLOOR_TOLERANCE", "align", "false_loop_closure_mask", "false_loop_closures", "level_accuracy",
+           "rpe_rmse", "run_metrics"]
 
 
 def align(estimate: np.ndarray, truth: np.ndarray, *, with_scale: bool = True) -> np.ndarray:
@@ -57,12 +63,37 @@ def level_accuracy(aligned_heights: np.ndarray, true_levels: np.ndarray, levels:
     return float(np.mean(nearest == np.asarray(true_levels)))
 
 
+def false_loop_closure_mask(positions_now: np.ndarray, positions_then: np.ndarray, levels_now: np.ndarray,
+                            levels_then: np.ndarray, *, distance: float = 2.0, floors: np.ndarray | None = None,
+                            floor_tolerance: float = FLOOR_TOLERANCE) -> np.ndarray:
+    """Which loop closures are false: the two places (the robot's true position now, m, against the matched
+    experience's when it was made) are more than ``distance`` metres apart in 3-D, or on different levels.
+
+    With ``floors`` (the floor heights, m) a place is on a level only when its true height is within
+    ``floor_tolerance`` (m) of that level's floor; a place on a ramp lies between two levels, on neither, and
+    there the 3-D distance alone decides (two places 0.2 m apart on one ramp, either side of its half-way
+    height, are the same place). Without ``floors`` the level indices are compared everywhere.
+    """
+    now = np.asarray(positions_now, dtype=float).reshape(-1, 3)
+    then = np.asarray(positions_then, dtype=float).reshape(-1, 3)
+    different = np.asarray(levels_now) != np.asarray(levels_then)
+    if floors is not None:
+        floors = np.asarray(floors, dtype=float).reshape(-1)
+
+        def on_floor(heights: np.ndarray) -> np.ndarray:
+            return np.min(np.abs(heights[:, None] - floors[None]), axis=1, initial=np.inf) <= floor_tolerance
+
+        different &= on_floor(now[:, 2]) & on_floor(then[:, 2])
+    return (np.linalg.norm(now - then, axis=1) > distance) | different
+
+
 def false_loop_closures(positions_now: np.ndarray, positions_then: np.ndarray, levels_now: np.ndarray,
-                        levels_then: np.ndarray, *, distance: float = 2.0) -> int:
-    """How many loop closures joined places more than ``distance`` metres apart, or on different levels,
-    in ground truth (the robot's true position now against the matched experience's when it was made)."""
-    gaps = np.linalg.norm(np.asarray(positions_now, dtype=float) - np.asarray(positions_then, dtype=float), axis=1)
-    return int(np.count_nonzero((gaps > distance) | (np.asarray(levels_now) != np.asarray(levels_then))))
+                        levels_then: np.ndarray, *, distance: float = 2.0, floors: np.ndarray | None = None,
+                        floor_tolerance: float = FLOOR_TOLERANCE) -> int:
+    """How many loop closures are false (:func:`false_loop_closure_mask`)."""
+    return int(np.count_nonzero(false_loop_closure_mask(
+        positions_now, positions_then, levels_now, levels_then, distance=distance, floors=floors,
+        floor_tolerance=floor_tolerance)))
 
 
 def run_metrics(
@@ -102,8 +133,10 @@ def run_metrics(
 
     Returns ``ate_rmse_m`` and ``ate_se3_rmse_m`` ({slam, odometry[, slam_online]}), ``rpe_rmse_m`` (the same,
     10 m segments), ``map_rmse_m``, ``loop_closures``, ``false_loop_closures``,
-    ``true_loop_closures_per_level`` ({level index as text: closures within 2 m on that level}, None without
-    levels) and ``level_accuracy``; a number that needs more frames than the run has is None.
+    ``true_loop_closures_per_level`` ({level index as text: the closures that are not false, by the level
+    nearest the robot's true height}, None without levels) and ``level_accuracy``; a number that
+    needs more frames than the run has is None. A closure on a ramp is judged as in
+    :func:`false_loop_closure_mask` with the floors ``levels``.
     """
     positions = truth[:, :3]
     enough = len(truth) >= 3
@@ -127,8 +160,9 @@ def run_metrics(
     then = np.asarray(closure_truth, dtype=float).reshape(-1, 3)
     then_levels = np.zeros(len(now), dtype=int) if closure_levels is None else np.asarray(closure_levels)
     result["loop_closures"] = int(len(now))
-    result["false_loop_closures"] = false_loop_closures(positions[now], then, true_levels[now], then_levels)
-    true_closure = ((np.linalg.norm(positions[now] - then, axis=1) <= 2.0) & (true_levels[now] == then_levels))
+    floors = levels if known_levels else None
+    true_closure = ~false_loop_closure_mask(positions[now], then, true_levels[now], then_levels, floors=floors)
+    result["false_loop_closures"] = int(np.count_nonzero(~true_closure))
     result["true_loop_closures_per_level"] = (
         {str(level): int(np.sum(true_closure & (true_levels[now] == level))) for level in range(len(levels))}
         if known_levels else None)
@@ -143,7 +177,7 @@ def run_metrics(
         result["merge_frames"] = [int(frame) for frame in merge_frames]
         # a merge with a place of unknown truth (a map saved without it) cannot be judged: None
         result["false_merges"] = (None if not np.all(np.isfinite(merge_then)) else false_loop_closures(
-            positions[merge_frames], merge_then, true_levels[merge_frames], merge_then_levels))
+            positions[merge_frames], merge_then, true_levels[merge_frames], merge_then_levels, floors=floors))
     return result
 
 

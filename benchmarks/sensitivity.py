@@ -1,0 +1,107 @@
+"""How much do the accuracy numbers of a drive move when its images change imperceptibly?
+
+Run: ``python benchmarks/sensitivity.py [--worlds carpark urban ...] [--seeds 3] [--noise 0.5] [--laps 2]
+[--preset sim] [--max-frames N]``. A measurement, not a test: it asserts nothing and is not part of the pytest run.
+
+What it does: for each world, drives its main route once with the testbed's :class:`sim.ScriptedDrive` (the
+frames ``neuroslam drive`` sees: 160×120 RGB at 10 Hz, 1 m/s) and keeps the frames; then runs NeuroSLAM
+(camera only, the preset given) on them ``1 + --seeds`` times: once as recorded (what ``neuroslam drive
+WORLD`` scores, up to the timing of the frames) and once per seed with uniform noise of ±``--noise`` grey
+levels (of 255) added to the grey image, below the 8-bit rounding of a camera. Each run is scored as
+``metrics.json`` scores it (:func:`neuroslam.evaluation.run_metrics`: Sim(3)-aligned ATE of the final
+trajectory, false closures, level accuracy). It prints one row per run and, per world, the range over
+the runs. A wide range means the number in a table is one draw of a lottery, not a property of the
+system: which views match, and so which loops close, can flip on a grey level.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+from tqdm import tqdm
+
+import sim
+from neuroslam import presets
+from neuroslam.evaluation import run_metrics
+from neuroslam.slam import NeuroSLAM
+from neuroslam.vision.preprocessing import grey
+
+
+def record(world_name: str, laps: int, max_frames: int | None = None
+           ) -> tuple[object, list[np.ndarray], np.ndarray, np.ndarray, np.ndarray]:
+    """The drive's RGB frames, times (s), true poses (N, 4: x, y, z m, yaw rad) and true levels."""
+    world = sim.load_world(world_name)
+    drive = sim.ScriptedDrive(world, laps=laps, max_frames=max_frames)
+    images, times, poses, levels = [], [], [], []
+    with tqdm(total=int(drive.total_distance), unit="m", desc=f"render {world_name}", leave=False) as bar:
+        for frame in drive:
+            images.append(frame.image)
+            times.append(frame.time)
+            poses.append(frame.ground_truth.pose)
+            levels.append(frame.ground_truth.level)
+            bar.update(min(int(frame.progress), bar.total) - bar.n)
+    return world, images, np.array(times), np.array(poses), np.array(levels)
+
+
+def score(preset: str, world, images: list[np.ndarray], times: np.ndarray, poses: np.ndarray, levels: np.ndarray,
+          noise: float, seed: int | None) -> dict:
+    """One SLAM run on the frames (with noise when ``seed`` is not None), scored against the truth."""
+    rng = None if seed is None else np.random.default_rng(seed)
+    slam = NeuroSLAM(presets.get(preset))
+    closure_frames, closed, odometry = [], [], []
+    for index, (image, time) in enumerate(zip(tqdm(images, desc="slam", leave=False), times, strict=True)):
+        if rng is not None:
+            image = np.clip(grey(image) + rng.uniform(-noise, noise, image.shape[:2]).astype(np.float32) / 255,
+                            0.0, 1.0)
+        estimate = slam.step(image, float(time))
+        odometry.append(slam.odometry_pose)
+        if estimate.loop_closure:
+            closure_frames.append(index)
+            closed.append(estimate.experience_id)
+    themap = slam.experience_map
+    made = np.minimum(np.searchsorted(times, themap.creation_times), len(times) - 1)  # frame of each experience
+    then = made[np.array(closed, dtype=int)]
+    metrics = run_metrics(
+        truth=poses, true_levels=levels, levels=np.array(world.levels), estimate=slam.trajectory(),
+        odometry=np.array(odometry),
+        experience_positions=themap.poses[:, :3], experience_truth=poses[made, :3],
+        closure_frames=np.array(closure_frames, dtype=int), closure_truth=poses[then, :3],
+        closure_levels=levels[then])
+    return metrics
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--worlds", nargs="+", default=["carpark", "urban", "building", "gen:1", "gen:2", "gen:3"],
+                        help="worlds to drive (default: the README's accuracy table)")
+    parser.add_argument("--seeds", type=int, default=3, help="noisy runs per world besides the recorded one")
+    parser.add_argument("--noise", type=float, default=0.5, help="uniform noise amplitude, grey levels of 255")
+    parser.add_argument("--laps", type=int, default=2)
+    parser.add_argument("--preset", default="sim")
+    parser.add_argument("--max-frames", type=int, default=None, help="cut each drive short (a quick check)")
+    args = parser.parse_args()
+    if args.seeds < 0 or not args.noise > 0 or args.laps < 1:
+        parser.error(f"need --seeds >= 0, --noise > 0, --laps >= 1 (got {args.seeds}, {args.noise}, {args.laps})")
+    print(f"{'world':9s} {'run':>9s} {'closures (false)':>17s} {'SLAM ATE':>9s} {'odometry':>9s} "
+          f"{'ratio':>6s} {'level':>6s}")
+    for world_name in args.worlds:
+        world, images, times, poses, levels = record(world_name, args.laps, args.max_frames)
+        rows = []
+        for seed in [None, *range(1, args.seeds + 1)]:
+            metrics = score(args.preset, world, images, times, poses, levels, args.noise, seed)
+            ate = metrics["ate_rmse_m"]
+            rows.append((ate["slam"], ate["odometry"], metrics["false_loop_closures"]))
+            label = "recorded" if seed is None else f"noise {seed}"
+            print(f"{world_name:9s} {label:>9s} {metrics['loop_closures']:>10d} ({metrics['false_loop_closures']:>3d})"
+                  f" {ate['slam']:>9.2f} {ate['odometry']:>9.2f} {ate['slam'] / ate['odometry']:>6.2f}"
+                  f" {metrics['level_accuracy']:>6.3f}", flush=True)
+        slam_ate, odometry_ate, false = np.array(rows).T
+        ratio = slam_ate / odometry_ate
+        print(f"{world_name:9s} {'range':>9s} {'false ' + f'{int(false.min())}–{int(false.max())}':>17s}"
+              f" {slam_ate.min():>4.2f}–{slam_ate.max():<4.2f} {odometry_ate.min():>4.2f}–{odometry_ate.max():<4.2f}"
+              f" {ratio.min():.2f}–{ratio.max():.2f}", flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -49,13 +49,14 @@ def score(preset: str, world, images: list[np.ndarray], times: np.ndarray, poses
     """One SLAM run on the frames (with noise when ``seed`` is not None), scored against the truth."""
     rng = None if seed is None else np.random.default_rng(seed)
     slam = NeuroSLAM(presets.get(preset))
-    closure_frames, closed, odometry = [], [], []
+    closure_frames, closed, odometry, online = [], [], [], []
     for index, (image, time) in enumerate(zip(tqdm(images, desc="slam", leave=False), times, strict=True)):
         if rng is not None:
             image = np.clip(grey(image) + rng.uniform(-noise, noise, image.shape[:2]).astype(np.float32) / 255,
                             0.0, 1.0)
         estimate = slam.step(image, float(time))
         odometry.append(slam.odometry_pose)
+        online.append(estimate.pose)
         if estimate.loop_closure:
             closure_frames.append(index)
             closed.append(estimate.experience_id)
@@ -64,7 +65,7 @@ def score(preset: str, world, images: list[np.ndarray], times: np.ndarray, poses
     then = made[np.array(closed, dtype=int)]
     metrics = run_metrics(
         truth=poses, true_levels=levels, levels=np.array(world.levels), estimate=slam.trajectory(),
-        odometry=np.array(odometry),
+        odometry=np.array(odometry), online_estimate=np.array(online),
         experience_positions=themap.poses[:, :3], experience_truth=poses[made, :3],
         closure_frames=np.array(closure_frames, dtype=int), closure_truth=poses[then, :3],
         closure_levels=levels[then])
@@ -83,7 +84,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.seeds < 0 or not args.noise > 0 or args.laps < 1:
         parser.error(f"need --seeds >= 0, --noise > 0, --laps >= 1 (got {args.seeds}, {args.noise}, {args.laps})")
-    print(f"{'world':9s} {'run':>9s} {'closures (false)':>17s} {'SLAM ATE':>9s} {'odometry':>9s} "
+    print(f"{'world':9s} {'run':>9s} {'closures (false)':>17s} {'SLAM ATE':>9s} {'online':>7s} {'odometry':>9s} "
           f"{'ratio':>6s} {'level':>6s}")
     for world_name in args.worlds:
         world, images, times, poses, levels = record(world_name, args.laps, args.max_frames)
@@ -94,12 +95,14 @@ def main() -> None:
             rows.append((ate["slam"], ate["odometry"], metrics["false_loop_closures"]))
             label = "recorded" if seed is None else f"noise {seed}"
             print(f"{world_name:9s} {label:>9s} {metrics['loop_closures']:>10d} ({metrics['false_loop_closures']:>3d})"
-                  f" {ate['slam']:>9.2f} {ate['odometry']:>9.2f} {ate['slam'] / ate['odometry']:>6.2f}"
+                  f" {ate['slam']:>9.2f} {ate['slam_online']:>7.2f} {ate['odometry']:>9.2f}"
+                  f" {ate['slam'] / ate['odometry']:>6.2f}"
                   f" {metrics['level_accuracy']:>6.3f}", flush=True)
         slam_ate, odometry_ate, false = np.array(rows).T
         ratio = slam_ate / odometry_ate
         print(f"{world_name:9s} {'range':>9s} {'false ' + f'{int(false.min())}–{int(false.max())}':>17s}"
-              f" {slam_ate.min():>4.2f}–{slam_ate.max():<4.2f} {odometry_ate.min():>4.2f}–{odometry_ate.max():<4.2f}"
+              f" {slam_ate.min():>4.2f}–{slam_ate.max():<4.2f} {'':>7s}"
+              f" {odometry_ate.min():>4.2f}–{odometry_ate.max():<4.2f}"
               f" {ratio.min():.2f}–{ratio.max():.2f}", flush=True)
 
 

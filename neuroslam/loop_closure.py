@@ -43,11 +43,15 @@ def confirm_place(
     than its positions). A view whose eligible experiences within ``radius`` of where the frame could be
     spread over more than ``3 * tolerance`` (seen along a uniform street, or at several places) is no
     evidence and never agrees. Hypotheses with at least ``matches`` agreeing frames are confirmed; the one
-    nearest to the robot's current estimate wins, unless another confirmed one lies more than
-    ``2 * tolerance`` from it (a place that several parts of the map explain equally is not confirmed).
+    whose agreeing frames fit best wins (the least mean distance from where it maps them to their views'
+    experiences: a view seen over a metre or two also agrees, less closely, with a hypothesis shifted along
+    the path by that much, which the robot's drifting estimate cannot tell apart), unless another
+    confirmed one lies more than ``2 * tolerance`` from it (a place that several parts of the map explain
+    equally is not confirmed; rivals are looked for up to ``2 * tolerance`` beyond the radii, since the
+    estimate that centres the radii has drifted: a wrong place inside them must not win because the right
+    one lies just outside).
     Hypotheses horizontally farther than ``radius`` from the estimate, or vertically farther than
-    ``height_radius`` (default ``radius``), are not considered. All hypotheses at once; one pass per
-    window frame.
+    ``height_radius`` (default ``radius``), cannot win. All hypotheses at once; one pass per window frame.
 
     Args:
         window_poses: (K, 4) odometry poses (x, y, z, yaw; m, rad) of the window's frames, oldest first;
@@ -68,13 +72,17 @@ def confirm_place(
     hypotheses = hypotheses[eligible[hypotheses]]
     height_radius = radius if height_radius is None else height_radius
     near = np.linalg.norm(map_poses[hypotheses, :2] - robot[:2], axis=1)
-    reachable = (near <= radius) & (np.abs(map_poses[hypotheses, 2] - robot[2]) <= height_radius)
-    hypotheses, near = hypotheses[reachable], near[reachable]
-    if len(hypotheses) == 0:
+    rise = np.abs(map_poses[hypotheses, 2] - robot[2])
+    # rivals: a place just beyond the radius that the views fit as well makes one inside it ambiguous
+    margin = 2 * tolerance
+    considered = (near <= radius + margin) & (rise <= height_radius + margin)
+    hypotheses, within = hypotheses[considered], ((near <= radius) & (rise <= height_radius))[considered]
+    if not within.any():
         return -1
     rotation = map_poses[hypotheses, 3] + relative_yaw - now[3]  # odometry frame → map frame, per hypothesis
     cos, sin = np.cos(rotation), np.sin(rotation)
     support = np.zeros(len(hypotheses), dtype=int)
+    misfit = np.zeros(len(hypotheses))  # m, summed over the agreeing frames: the distance to the nearest agreeing place
     for pose, template in zip(window_poses, window_templates, strict=True):
         places = experiences_of(int(template))
         places = places[eligible[places]]
@@ -90,10 +98,12 @@ def confirm_place(
             continue  # a view seen along many metres (or at several places) within reach says little
         climbs = np.abs(mapped[:, None, 2] - map_poses[None, places, 2])
         agree = (gaps <= tolerance) & (climbs <= tolerance + climb_error * math.hypot(dx, dy))
-        support += agree.any(axis=1)
+        agreeing = agree.any(axis=1)
+        support += agreeing
+        misfit += np.where(agreeing, np.where(agree, gaps, np.inf).min(axis=1, initial=np.inf), 0.0)
     confirmed = support >= matches
-    if not confirmed.any():
+    if not (confirmed & within).any():
         return -1
-    best = int(np.argmin(np.where(confirmed, near, np.inf)))
+    best = int(np.argmin(np.where(confirmed & within, misfit / np.maximum(support, 1), np.inf)))
     spread = np.linalg.norm(map_poses[hypotheses[confirmed], :3] - map_poses[hypotheses[best], :3], axis=1).max()
     return int(hypotheses[best]) if spread <= 2 * tolerance else -1

@@ -94,6 +94,20 @@ def test_a_place_the_map_explains_twice_is_not_confirmed():
     assert _confirm(themap, odometry[10:30], templates[10:30], radius=10.0) in (28, 29)
 
 
+def test_a_rival_just_beyond_the_radius_makes_the_place_ambiguous():
+    """The same path twice, 2.5 m apart sideways; the robot is on the original (at 29) but its estimate has
+    drifted onto the copy, so only the copy's experiences lie within the 1 m radius. The views fit both
+    copies alike: the copy must not win because the right place lies just outside the radius."""
+    themap = _Map(_path(40, turn_at=25), copies=2, offset=(2.5, 0.0))
+    odometry, templates = _revisit(themap, 30)
+    copy_of_29 = themap.poses[40 + 29]
+    assert np.linalg.norm(copy_of_29[:2] - themap.poses[29, :2]) == pytest.approx(2.5)
+    assert _confirm(themap, odometry[10:30], templates[10:30], robot=copy_of_29, radius=1.0) == -1
+    # a rival more than 2 tolerances beyond the radius is not looked for: the copy wins
+    far_copy = _Map(_path(40, turn_at=25), copies=2, offset=(3.5, 0.0))
+    assert _confirm(far_copy, odometry[10:30], templates[10:30], robot=far_copy.poses[69], radius=1.0) in (68, 69)
+
+
 def test_only_eligible_experiences_count():
     themap = _Map(_path(40, turn_at=25))
     odometry, templates = _revisit(themap, 30)
@@ -144,3 +158,19 @@ def test_views_seen_along_many_metres_are_no_evidence():
                          np.ones(40, bool), themap.poses[29], radius=20.0, tolerance=1.0, matches=14) in (28, 29)
     assert confirm_place(odometry[10:30], templates[10:30], 0.0, themap.poses, also_further,
                          np.ones(40, bool), themap.poses[29], radius=20.0, tolerance=1.0, matches=14) == -1
+
+
+def test_of_two_confirmed_places_the_one_the_views_fit_best_wins_not_the_one_nearest_the_estimate():
+    """Each view belongs to two neighbouring experiences 0.5 m apart, so both experiences of the current view
+    (28 and 29; the robot is at 29) are confirmed: under 28 every frame lands half a metre short of where it
+    was, still within the tolerance of a place of its view. The robot's drifting estimate lies half a metre
+    behind 28, nearer 28; the views fit 29 exactly, and 29 wins."""
+    themap = _Map(_path(40, turn_at=25))
+    odometry, templates = _revisit(themap, 30)
+    window = slice(10, 30)
+    assert np.allclose(themap.poses[29, :2] - themap.poses[28, :2], [0.0, SPACING])  # on the northward leg
+    behind = themap.poses[28] - [0.0, SPACING, 0.0, 0.0]
+    assert _confirm(themap, odometry[window], templates[window], robot=behind) == 29
+    # and with the estimate beyond 29 too: where the estimate lies does not choose between them
+    beyond = themap.poses[29] + [0.0, SPACING, 0.0, 0.0]
+    assert _confirm(themap, odometry[window], templates[window], robot=beyond) == 29

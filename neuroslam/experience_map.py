@@ -396,6 +396,13 @@ class ExperienceMap:
         direction = wrapped_distance(self.direction_codes, direction_code, self.direction_size)
         return config.view_weight * view + config.grid_weight * grid + config.direction_weight * direction
 
+    def code_scores(self, experiences: np.ndarray, grid_code: np.ndarray, direction_code: np.ndarray) -> np.ndarray:
+        """Eq. 22's code terms against ``experiences`` (ids): weighted wrapped code distances (cells)."""
+        config = self.config
+        return (config.grid_weight * wrapped_distance(self.grid_codes[experiences], grid_code, self.grid_size)
+                + config.direction_weight * wrapped_distance(self.direction_codes[experiences], direction_code,
+                                                             self.direction_size))
+
     def experiences_of(self, template_id: int) -> np.ndarray:
         """Ids of the experiences whose view is ``template_id``, oldest first."""
         return np.asarray(self._by_template.get(int(template_id), ()), dtype=np.int64)
@@ -411,11 +418,15 @@ class ExperienceMap:
         return candidates[self.components[candidates] == self.component]
 
     def update(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float, *,
-               may_close_loop: bool = True) -> MapUpdate:
+               may_close_loop: bool = True, place: int = -1) -> MapUpdate:
         """Match the current conjunctive code, create or re-enter an experience, relax after a loop closure.
 
         With ``may_close_loop`` False (an unconfirmed place under the ``confirmed`` rule) a match that
-        would close a loop creates a new experience instead.
+        would close a loop creates a new experience instead. ``place`` (an experience id of this view, or
+        -1): the place a run of views confirmed; a loop closes there, not at whichever other experience of
+        the view scores best (along a corridor a view has experiences every metre or two, and the drifted
+        codes may lie nearer a neighbour of the confirmed one). When eq. 22 re-enters the current experience
+        or one linked to it, that stands (the robot follows the map; no loop closes).
         """
         if self.current < 0:
             self._create(template_id, grid_code, direction_code, time, pose=self.relative.copy())
@@ -424,16 +435,16 @@ class ExperienceMap:
         candidates = self._candidates(template_id)
         if len(candidates):
             config = self.config
-            scores = (config.grid_weight * wrapped_distance(self.grid_codes[candidates], grid_code, self.grid_size)
-                      + config.direction_weight * wrapped_distance(self.direction_codes[candidates], direction_code,
-                                                                   self.direction_size)
+            scores = (self.code_scores(candidates, grid_code, direction_code)
                       + config.view_weight * (self.template_ids[candidates] != template_id))
             best_index = int(np.argmin(scores))
             best, best_score = int(candidates[best_index]), float(scores[best_index])
         else:
             best, best_score = -1, math.inf
-        closes_loop = (best >= 0 and best != self.current and (self.current, best) not in self._linked
-                       and (best, self.current) not in self._linked)
+        closes_loop = self._closes_loop(best)
+        if place >= 0 and closes_loop and best != place:  # close the loop where the views confirmed it
+            best, best_score = place, float(self.code_scores(np.array([place]), grid_code, direction_code)[0])
+            closes_loop = self._closes_loop(best)
         if best_score > self.config.threshold or (closes_loop and not may_close_loop):
             previous = self.current
             self._create(template_id, grid_code, direction_code, time, pose=self.robot_pose())
@@ -462,6 +473,11 @@ class ExperienceMap:
         self.relative = offset
         self._relax(self.config.relaxation_passes if closes_loop else self.config.idle_passes)
         return MapUpdate(best, False, closes_loop)
+
+    def _closes_loop(self, experience: int) -> bool:
+        """Re-entering ``experience`` would close a loop: it is neither the current one nor linked to it."""
+        return (experience >= 0 and experience != self.current and (self.current, experience) not in self._linked
+                and (experience, self.current) not in self._linked)
 
     # graph ----------------------------------------------------------------------------------------------
     def _create(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float,

@@ -213,7 +213,7 @@ class NeuroSLAM:
         self._odometry_pose = np.array([x + distance * math.cos(middle), y + distance * math.sin(middle), z + climb,
                                         math.atan2(math.sin(yaw + yaw_change), math.cos(yaw + yaw_change))])
         themap.integrate(distance, yaw_change, climb, drift)  # the robot's pose in the map includes this frame's motion
-        may_close_loop, merged = True, False
+        may_close_loop, merged, place = True, False, -1
         self._since_closure += distance
         spacing = self.config.experience_map.confirmation_spacing
         # the newest entry is the latest frame; it stays once it lies ``spacing`` beyond the one before
@@ -234,7 +234,7 @@ class NeuroSLAM:
                 grid_code, direction_code = self._relocate(place, view.relative_yaw, grid_code, direction_code)
 
         update = themap.update(view.template_id, grid_code, direction_code, float(timestamp),
-                               may_close_loop=may_close_loop)
+                               may_close_loop=may_close_loop, place=place if may_close_loop and not merged else -1)
         if update.loop_closure or (not update.new_experience and self._is_old(update.experience_id, float(timestamp))):
             self._since_closure = 0.0  # on an old experience: localised in the map
         self._frame_experiences.append(update.experience_id)

@@ -150,3 +150,33 @@ def test_a_map_saved_before_links_had_weights_loads_with_all_alike():
     assert loaded.link_weights.tolist() == [1.0] * 8
     loaded.load_state_dict(state)
     assert loaded.link_weights.tolist() == state["link_weights"].tolist()
+
+
+def test_a_confirmed_place_is_the_one_re_entered_not_the_neighbour_whose_codes_lie_nearer():
+    """View 7 seen along a corridor: experiences 0, 1, 2 at codes 0, 1.5 and 3 cells. Back in the corridor
+    with codes 2.2 (drifted), eq. 22 alone re-enters experience 1 (0.7 cells away against 0.8); when a run of
+    views confirmed experience 2 (``place``), the loop closes there."""
+    def corridor():
+        experience_map = ExperienceMap(ExperienceMapConfig(threshold=1.0, relaxation_passes=0, idle_passes=0))
+        for k, code in enumerate([0.0, 1.5, 3.0]):
+            experience_map.integrate(3.0 if k else 0.0, 0.0, 0.0)
+            assert experience_map.update(7, np.array([code, 0.0, 0.0]), np.zeros(2), float(k)).new_experience
+        experience_map.integrate(3.0, 0.0, 0.0)
+        assert experience_map.update(8, np.array([10.0, 0.0, 0.0]), np.zeros(2), 3.0).experience_id == 3
+        experience_map.integrate(3.0, 0.0, 0.0)
+        assert experience_map.update(9, np.array([20.0, 0.0, 0.0]), np.zeros(2), 4.0).experience_id == 4
+        experience_map.integrate(0.0, math.pi, 0.0)
+        return experience_map
+
+    by_codes = corridor().update(7, np.array([2.2, 0.0, 0.0]), np.zeros(2), 5.0)
+    assert by_codes.loop_closure and by_codes.experience_id == 1
+    confirmed = corridor().update(7, np.array([2.2, 0.0, 0.0]), np.zeros(2), 5.0, place=2)
+    assert confirmed.loop_closure and confirmed.experience_id == 2
+    # following the map is not a loop closure: at experience 2, eq. 22 re-enters its linked neighbour 1, and
+    # that stands whatever place was confirmed
+    following = ExperienceMap(ExperienceMapConfig(threshold=1.0, relaxation_passes=0, idle_passes=0))
+    for k, code in enumerate([0.0, 1.5, 3.0]):
+        following.integrate(3.0 if k else 0.0, 0.0, 0.0)
+        following.update(7, np.array([code, 0.0, 0.0]), np.zeros(2), float(k))
+    followed = following.update(7, np.array([2.2, 0.0, 0.0]), np.zeros(2), 3.0, place=0)
+    assert not followed.loop_closure and followed.experience_id == 1

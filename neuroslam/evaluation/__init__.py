@@ -2,13 +2,13 @@
 (pure math, no I/O)."""
 
 from .metrics import (
-           FLOOR_TOLERANCE,
-           align,
-           false_loop_closure_mask,
-           false_loop_closures,
-           level_accuracy,
-           rpe_rmse,
-           run_metrics,
+    FLOOR_TOLERANCE,
+    align,
+    false_loop_closure_mask,
+    false_loop_closures,
+    level_accuracy,
+    rpe_rmse,
+    run_metrics,
 )
 from .trajectory import ate_rmse, umeyama
 

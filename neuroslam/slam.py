@@ -234,7 +234,7 @@ class NeuroSLAM:
                 grid_code, direction_code = self._relocate(place, view.relative_yaw, grid_code, direction_code)
 
         update = themap.update(view.template_id, grid_code, direction_code, float(timestamp),
-                               may_close_loop=may_close_loop, place=place if may_close_loop and not merged else -1)
+                               may_close_loop=may_close_loop, place=-1 if merged else place)  # the confirmed place
         if update.loop_closure or (not update.new_experience and self._is_old(update.experience_id, float(timestamp))):
             self._since_closure = 0.0  # on an old experience: localised in the map
         self._frame_experiences.append(update.experience_id)

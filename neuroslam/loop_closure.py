@@ -10,7 +10,7 @@ That is what rejects a single look-alike view, and a run of look-alike views in 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -31,6 +31,7 @@ def confirm_place(
     matches: int,
     climb_error: float = 0.0,
     height_radius: float | None = None,
+    window_alternatives: Sequence[Sequence[int]] | None = None,
 ) -> int:
     """The old experience the last frames confirm the robot is at, or -1.
 
@@ -51,7 +52,11 @@ def confirm_place(
     estimate that centres the radii has drifted: a wrong place inside them must not win because the right
     one lies just outside).
     Hypotheses horizontally farther than ``radius`` from the estimate, or vertically farther than
-    ``height_radius`` (default ``radius``), cannot win. All hypotheses at once; one pass per window frame.
+    ``height_radius`` (default ``radius``), cannot win. A frame's ``window_alternatives`` (further
+    templates its view matched within the threshold) are evidence too: the frame agrees when an
+    experience of its view or of one of them lies where the hypothesis maps it. They do not make
+    hypotheses, and the spread that makes a view no evidence is its own. All hypotheses at once; one pass
+    per window frame.
 
     Args:
         window_poses: (K, 4) odometry poses (x, y, z, yaw; m, rad) of the window's frames, oldest first;
@@ -63,6 +68,7 @@ def confirm_place(
         robot: (4,) the robot's current estimate in the map.
         radius, tolerance, height_radius: m. matches: frames that must agree (the current frame counts).
         climb_error: m of height per m of travel the window's odometry may be off by.
+        window_alternatives: per window frame, the other template ids its view matched (may be empty).
     """
     window_poses = np.asarray(window_poses, dtype=float)
     if len(window_poses) < matches:
@@ -83,7 +89,9 @@ def confirm_place(
     cos, sin = np.cos(rotation), np.sin(rotation)
     support = np.zeros(len(hypotheses), dtype=int)
     misfit = np.zeros(len(hypotheses))  # m, summed over the agreeing frames: the distance to the nearest agreeing place
-    for pose, template in zip(window_poses, window_templates, strict=True):
+    if window_alternatives is None:
+        window_alternatives = [()] * len(window_poses)
+    for pose, template, alternatives in zip(window_poses, window_templates, window_alternatives, strict=True):
         places = experiences_of(int(template))
         places = places[eligible[places]]
         if len(places) == 0:
@@ -96,6 +104,10 @@ def confirm_place(
         extent = np.ptp(map_poses[places[reach], :2], axis=0) if reach.any() else np.zeros(2)
         if math.hypot(*extent) > 3 * tolerance:
             continue  # a view seen along many metres (or at several places) within reach says little
+        if len(alternatives):
+            places = np.unique(np.concatenate([places, *(experiences_of(int(other)) for other in alternatives)]))
+            places = places[eligible[places]]
+            gaps = np.linalg.norm(mapped[:, None, :2] - map_poses[None, places, :2], axis=2)
         climbs = np.abs(mapped[:, None, 2] - map_poses[None, places, 2])
         agree = (gaps <= tolerance) & (climbs <= tolerance + climb_error * math.hypot(dx, dy))
         agreeing = agree.any(axis=1)

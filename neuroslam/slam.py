@@ -110,8 +110,10 @@ class NeuroSLAM:
         self._image_shape: tuple[int, ...] | None = None
         self._last_time: float | None = None
         self._odometry_pose = np.zeros(4)
-        # the last frames' (odometry pose, template id), for the confirmed loop-closure rule
-        self._recent: deque[tuple[np.ndarray, int]] = deque(maxlen=c.experience_map.confirmation_window)
+        # the last frames' (odometry pose, template id, other matching templates), for the confirmed
+        # loop-closure rule
+        self._recent: deque[tuple[np.ndarray, int, tuple[int, ...]]] = deque(
+            maxlen=c.experience_map.confirmation_window)
         self._since_closure = 0.0  # m driven since the robot was last on an old experience (or closed a loop)
         # per frame: its experience and the robot's pose relative to it (x, y, z, yaw), for trajectory()
         self._frame_experiences = _Growing(0, np.int64)
@@ -217,11 +219,13 @@ class NeuroSLAM:
         self._since_closure += distance
         spacing = self.config.experience_map.confirmation_spacing
         # the newest entry is the latest frame; it stays once it lies ``spacing`` beyond the one before
+        entry = (self._odometry_pose, view.template_id,
+                 view.alternatives[: self.config.experience_map.confirmation_views - 1])
         if (len(self._recent) < 2 or spacing == 0
                 or np.linalg.norm(self._recent[-1][0][:3] - self._recent[-2][0][:3]) >= spacing):
-            self._recent.append((self._odometry_pose, view.template_id))
+            self._recent.append(entry)
         else:
-            self._recent[-1] = (self._odometry_pose, view.template_id)
+            self._recent[-1] = entry
         if not view.new:
             place = self._merge_place(view.template_id, view.relative_yaw)
             if place >= 0:
@@ -283,7 +287,11 @@ class NeuroSLAM:
         for prefix, part in parts.items():
             state.update({f"{prefix}.{key}": value for key, value in part.state_dict().items()})
         templates = self.local_view.count
-        recent_poses = np.array([pose for pose, _ in self._recent]).reshape(-1, 4)
+        recent_poses = np.array([entry[0] for entry in self._recent]).reshape(-1, 4)
+        width = max((len(entry[2]) for entry in self._recent), default=0)
+        recent_alternatives = np.full((len(self._recent), width), -1, dtype=np.int64)  # -1: none
+        for row, entry in enumerate(self._recent):
+            recent_alternatives[row, : len(entry[2])] = entry[2]
         state.update({
             "slam.view_grid": self._view_grid[:templates].copy(),
             "slam.view_direction": self._view_direction[:templates].copy(),
@@ -295,7 +303,8 @@ class NeuroSLAM:
             "slam.last_time": np.float64(math.nan if self._last_time is None else self._last_time),
             "slam.odometry_pose": self._odometry_pose.copy(),
             "slam.recent_poses": recent_poses,
-            "slam.recent_templates": np.array([template for _, template in self._recent], dtype=np.int64),
+            "slam.recent_templates": np.array([entry[1] for entry in self._recent], dtype=np.int64),
+            "slam.recent_alternatives": recent_alternatives,
             "slam.since_closure": np.float64(self._since_closure),
             "slam.frame_experiences": self._frame_experiences.view.copy(),
             "slam.frame_offsets": self._frame_offsets.view.copy(),
@@ -365,9 +374,16 @@ class NeuroSLAM:
             last_time = float(state["slam.last_time"])
             self._last_time = None if math.isnan(last_time) else last_time
             self._odometry_pose = np.asarray(state["slam.odometry_pose"], dtype=float).copy()
-            recent = zip(np.asarray(state["slam.recent_poses"], dtype=float), state["slam.recent_templates"],
-                         strict=True)
-            self._recent = deque(((pose.copy(), int(template)) for pose, template in recent),
+            poses, templates = np.asarray(state["slam.recent_poses"], dtype=float), state["slam.recent_templates"]
+            # maps saved before the alternatives were kept have none
+            alternatives = state.get("slam.recent_alternatives", np.zeros((len(templates), 0), dtype=np.int64))
+            alternatives = np.asarray(alternatives, dtype=np.int64)
+            if alternatives.ndim != 2 or len(alternatives) != len(templates):
+                raise ValueError(f"recent alternatives have shape {alternatives.shape}, expected "
+                                 f"({len(templates)}, K)")
+            recent = zip(poses, templates, alternatives, strict=True)
+            self._recent = deque(((pose.copy(), int(template), tuple(int(other) for other in others if other >= 0))
+                                  for pose, template, others in recent),
                                  maxlen=self.config.experience_map.confirmation_window)
             self._since_closure = float(state["slam.since_closure"])
             self._frame_experiences = _Growing.of(state["slam.frame_experiences"], 0, np.int64)
@@ -448,8 +464,9 @@ class NeuroSLAM:
         themap = self.experience_map
         eligible = self._old(time) & (themap.components == themap.component)
         return confirm_place(
-            np.array([pose for pose, _ in self._recent]), np.array([template for _, template in self._recent]),
+            np.array([entry[0] for entry in self._recent]), np.array([entry[1] for entry in self._recent]),
             relative_yaw, themap.poses, themap.experiences_of, eligible, themap.robot_pose(),
+            window_alternatives=[entry[2] for entry in self._recent],
             radius=config.confirmation_tolerance + config.confirmation_drift * self._since_closure,
             height_radius=config.confirmation_tolerance + config.confirmation_climb_error * self._since_closure,
             tolerance=config.confirmation_tolerance, matches=config.confirmation_matches,
@@ -582,8 +599,8 @@ class NeuroSLAM:
         if len(others) == 0 or len(self._recent) < self.config.experience_map.confirmation_matches:
             return -1
         config = self.config.experience_map
-        poses = np.array([pose for pose, _ in self._recent])
-        templates = np.array([template for _, template in self._recent])
+        poses = np.array([entry[0] for entry in self._recent])
+        templates = np.array([entry[1] for entry in self._recent])
         found = []
         for component in others:
             place = confirm_place(poses, templates, relative_yaw, themap.poses, themap.experiences_of,

@@ -67,3 +67,20 @@ def test_templates_grow_in_one_contiguous_array():
     for seed in range(100):
         cells.add(cells.thumbnail(view(scene(seed), 0)))
     assert cells.templates.shape == (100, 12, 16) and cells.templates.flags.c_contiguous
+
+
+def test_the_other_templates_within_the_threshold_come_best_first():
+    """Two templates of one place (the second with a little noise) and one of another: a view of the place
+    matches the closer of the two and lists the other as its alternative; the unrelated one is not listed.
+    A view of the other place has no alternative."""
+    cells = LocalViewCells(LocalViewConfig(), horizontal_fov=math.radians(80))
+    world, rng = scene(4), np.random.default_rng(5)
+    cells.add(cells.thumbnail(view(world, 100)))
+    cells.add(cells.thumbnail(view(world, 100) + rng.normal(0.0, 0.02, (120, 160)).astype(np.float32)))
+    cells.add(cells.thumbnail(view(scene(6), 100)))
+    match = cells.observe(cells.thumbnail(view(world, 100) + rng.normal(0.0, 0.005, (120, 160)).astype(np.float32)))
+    differences, _ = cells.compare(cells.thumbnail(view(world, 100)), np.arange(3))
+    assert differences[2] > cells.config.threshold >= max(differences[:2])  # the premise
+    assert not match.new and match.template_id == 0 and match.alternatives == (1,)
+    other = cells.observe(cells.thumbnail(view(scene(6), 100)))
+    assert other.template_id == 2 and other.alternatives == ()

@@ -174,3 +174,29 @@ def test_of_two_confirmed_places_the_one_the_views_fit_best_wins_not_the_one_nea
     # and with the estimate beyond 29 too: where the estimate lies does not choose between them
     beyond = themap.poses[29] + [0.0, SPACING, 0.0, 0.0]
     assert _confirm(themap, odometry[window], templates[window], robot=beyond) == 29
+
+
+def test_other_templates_the_views_matched_are_evidence_but_make_no_hypotheses():
+    """Six of the window's 20 views matched a look-alike best (template 35: experiences 70 and 71, 20 m up
+    the path), the right template second. Counting the best matches alone, 14 frames agree, short of 16;
+    counting the other matches too, all 20 do. When the current view itself matched the look-alike best,
+    its alternative does not make a hypothesis: nothing is confirmed."""
+    themap = _Map(_path(80, turn_at=25))
+    odometry, templates = _revisit(themap, 30)
+    window = slice(10, 30)
+    best, right = templates[window].copy(), templates[window]
+    look_alike = [2, 5, 8, 11, 14, 17]  # window frames
+    best[look_alike] = 35
+    alternatives = [(int(right[k]),) if k in look_alike else () for k in range(20)]
+    eligible = np.ones(len(themap.poses), dtype=bool)
+
+    def confirm(views, others):
+        return confirm_place(odometry[window], views, 0.0, themap.poses, themap.experiences_of, eligible,
+                             themap.poses[29], radius=5.0, tolerance=1.0, matches=16, window_alternatives=others)
+
+    assert confirm(best, None) == -1
+    assert confirm(best, alternatives) in (28, 29)
+    assert confirm(right, None) in (28, 29)
+    current_look_alike = best.copy()
+    current_look_alike[-1] = 35
+    assert confirm(current_look_alike, alternatives[:-1] + [(int(right[-1]),)]) == -1

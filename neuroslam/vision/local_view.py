@@ -36,6 +36,9 @@ class ViewMatch:
         difference: mean absolute difference to the matched template (0 for a new one).
         column_shift: columns the view is shifted against the template (positive: content moved right).
         relative_yaw: the yaw of the view relative to the template's, rad (counter-clockwise positive).
+        alternatives: the other templates the view also matches within the threshold, best first (a
+            place seen again slightly off its first path can match a neighbouring template a little
+            better than its own; the loop confirmation counts these too).
     """
 
     template_id: int
@@ -43,6 +46,7 @@ class ViewMatch:
     difference: float
     column_shift: int
     relative_yaw: float
+    alternatives: tuple[int, ...] = ()
 
 
 class LocalViewCells:
@@ -167,12 +171,14 @@ class LocalViewCells:
         if self.count:
             indices = self.candidates(thumbnail)
             differences, shifts = self.compare(thumbnail, indices)
-            best = int(np.argmin(differences))
-            if differences[best] <= self.config.threshold:
+            order = np.argsort(differences, kind="stable")
+            matching = order[differences[order] <= self.config.threshold]
+            if len(matching):
+                best = int(matching[0])
                 shift = int(shifts[best])
                 # content moved right (positive shift) means the camera turned left: positive yaw
                 return ViewMatch(int(indices[best]), False, float(differences[best]), shift,
-                                 shift * self.radians_per_column)
+                                 shift * self.radians_per_column, tuple(int(index) for index in indices[matching[1:]]))
         return ViewMatch(self.add(thumbnail), True, 0.0, 0, 0.0)
 
     def add(self, thumbnail: np.ndarray) -> int:

@@ -55,8 +55,9 @@ def confirm_place(
     ``height_radius`` (default ``radius``), cannot win. A frame's ``window_alternatives`` (further
     templates its view matched within the threshold) are evidence too: the frame agrees when an
     experience of its view or of one of them lies where the hypothesis maps it. They do not make
-    hypotheses, and the spread that makes a view no evidence is its own. All hypotheses at once; one pass
-    per window frame.
+    hypotheses, and the spread that makes a view no evidence is its own (as is the eligibility: a frame
+    whose view has no eligible experience says nothing). All hypotheses at once; one pass per window
+    frame.
 
     Args:
         window_poses: (K, 4) odometry poses (x, y, z, yaw; m, rad) of the window's frames, oldest first;

@@ -390,11 +390,8 @@ class ExperienceMap:
 
     def scores(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray) -> np.ndarray:
         """Eq. 22 against every experience: weighted view mismatch plus wrapped code distances (cells)."""
-        config = self.config
         view = (self.template_ids != template_id).astype(float)
-        grid = wrapped_distance(self.grid_codes, grid_code, self.grid_size)
-        direction = wrapped_distance(self.direction_codes, direction_code, self.direction_size)
-        return config.view_weight * view + config.grid_weight * grid + config.direction_weight * direction
+        return self.config.view_weight * view + self.code_scores(np.arange(self.size), grid_code, direction_code)
 
     def code_scores(self, experiences: np.ndarray, grid_code: np.ndarray, direction_code: np.ndarray) -> np.ndarray:
         """Eq. 22's code terms against ``experiences`` (ids): weighted wrapped code distances (cells)."""

@@ -1,13 +1,15 @@
 """How much do the accuracy numbers of a drive move when its images change imperceptibly?
 
 Run: ``python benchmarks/sensitivity.py [--worlds carpark urban ...] [--seeds 3] [--noise 0.5] [--laps 2]
-[--preset sim] [--max-frames N]``. A measurement, not a test: it asserts nothing and is not part of the pytest run.
+[--preset sim] [--config FILE] [--max-frames N]``. A measurement, not a test: it asserts nothing and is not
+part of the pytest run.
 
 What it does: for each world, drives its main route once with the testbed's :class:`sim.ScriptedDrive` (the
 frames ``neuroslam drive`` sees: 160×120 RGB at 10 Hz, 1 m/s) and keeps the frames; then runs NeuroSLAM
-(camera only, the preset given) on them ``1 + --seeds`` times: once as recorded (what ``neuroslam drive
-WORLD`` scores, up to the timing of the frames) and once per seed with uniform noise of ±``--noise`` grey
-levels (of 255) added to the grey image, below the 8-bit rounding of a camera. Each run is scored as
+(camera only, the preset given, with a ``--config`` file's settings over it) on them ``1 + --seeds`` times:
+once as recorded (what ``neuroslam drive WORLD`` scores, up to the timing of the frames) and once per seed
+with uniform noise of ±``--noise`` grey levels (of 255) added to the grey image, below the 8-bit rounding of
+a camera. Each run is scored as
 ``metrics.json`` scores it (:func:`neuroslam.evaluation.run_metrics`: Sim(3)-aligned ATE of the final
 trajectory, false closures, level accuracy). It prints one row per run and, per world, the range over
 the runs. A wide range means the number in a table is one draw of a lottery, not a property of the
@@ -23,6 +25,7 @@ from tqdm import tqdm
 
 import sim
 from neuroslam import presets
+from neuroslam.config import Config, load_config
 from neuroslam.evaluation import run_metrics
 from neuroslam.slam import NeuroSLAM
 from neuroslam.vision.preprocessing import grey
@@ -44,11 +47,11 @@ def record(world_name: str, laps: int, max_frames: int | None = None
     return world, images, np.array(times), np.array(poses), np.array(levels)
 
 
-def score(preset: str, world, images: list[np.ndarray], times: np.ndarray, poses: np.ndarray, levels: np.ndarray,
+def score(config: Config, world, images: list[np.ndarray], times: np.ndarray, poses: np.ndarray, levels: np.ndarray,
           noise: float, seed: int | None) -> dict:
     """One SLAM run on the frames (with noise when ``seed`` is not None), scored against the truth."""
     rng = None if seed is None else np.random.default_rng(seed)
-    slam = NeuroSLAM(presets.get(preset))
+    slam = NeuroSLAM(config)
     closure_frames, closed, odometry, online = [], [], [], []
     for index, (image, time) in enumerate(zip(tqdm(images, desc="slam", leave=False), times, strict=True)):
         if rng is not None:
@@ -80,17 +83,22 @@ def main() -> None:
     parser.add_argument("--noise", type=float, default=0.5, help="uniform noise amplitude, grey levels of 255")
     parser.add_argument("--laps", type=int, default=2)
     parser.add_argument("--preset", default="sim")
+    parser.add_argument("--config", default=None,
+                        help="TOML or JSON settings over the preset (as `neuroslam drive --config`)")
     parser.add_argument("--max-frames", type=int, default=None, help="cut each drive short (a quick check)")
     args = parser.parse_args()
     if args.seeds < 0 or not args.noise > 0 or args.laps < 1:
         parser.error(f"need --seeds >= 0, --noise > 0, --laps >= 1 (got {args.seeds}, {args.noise}, {args.laps})")
+    config = presets.get(args.preset)
+    if args.config is not None:
+        config = load_config(args.config, base=config)
     print(f"{'world':9s} {'run':>9s} {'closures (false)':>17s} {'SLAM ATE':>9s} {'online':>7s} {'odometry':>9s} "
           f"{'ratio':>6s} {'level':>6s}")
     for world_name in args.worlds:
         world, images, times, poses, levels = record(world_name, args.laps, args.max_frames)
         rows = []
         for seed in [None, *range(1, args.seeds + 1)]:
-            metrics = score(args.preset, world, images, times, poses, levels, args.noise, seed)
+            metrics = score(config, world, images, times, poses, levels, args.noise, seed)
             ate = metrics["ate_rmse_m"]
             rows.append((ate["slam"], ate["odometry"], metrics["false_loop_closures"]))
             label = "recorded" if seed is None else f"noise {seed}"

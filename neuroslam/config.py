@@ -153,6 +153,10 @@ class VisualOdometryConfig:
         max_slope: steepest slope driven; a transition leaving the pitch steeper is refused, rad (``transitions``).
         level_snap: a pitch this close to level after a transition is level, rad (``transitions``).
         yaw_scale: gain on the yaw rate from the column shift (calibration; 1 = geometric).
+        near_floor_row: for ``ground``, the yaw solved again on the floor below this fraction of half the
+            image height under the centre (eq. G4 of :mod:`neuroslam.vision.ground_motion`: walls close
+            beside the path reach into the far floor rows and bias the yaw); 0 (the default) turns it off.
+            0.5 measured best on the testbed (see the README's accuracy section).
     """
 
     rotation_region: Region = Region(0.0, 1.0, 0.0, 1.0)
@@ -177,6 +181,7 @@ class VisualOdometryConfig:
     transition_min: float = math.radians(3.0)
     max_slope: float = math.radians(15.0)
     level_snap: float = math.radians(4.0)
+    near_floor_row: float = 0.0
 
     def __post_init__(self) -> None:
         self.validate()
@@ -206,6 +211,9 @@ class VisualOdometryConfig:
         _positive(path, transition_rate=self.transition_rate, transition_min=self.transition_min)
         _require(f"{path}.max_slope", self.max_slope, _number(self.max_slope) and 0 < self.max_slope < math.pi / 2,
                  "must be an angle in (0, pi/2) rad")
+        _require(f"{path}.near_floor_row", self.near_floor_row,
+                 _number(self.near_floor_row) and (self.near_floor_row == 0 or 0.3 < self.near_floor_row < 1),
+                 "must be 0 (off) or a fraction in (0.3, 1) of half the image height")
         _require(f"{path}.level_snap", self.level_snap,
                  _number(self.level_snap) and 0 <= self.level_snap < self.max_slope,
                  "must be an angle from 0 to max_slope, rad")

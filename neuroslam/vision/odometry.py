@@ -145,7 +145,7 @@ class VisualOdometry:
                 raise InvalidParameterError("odometry.planar_motion", config.planar_motion,
                                             "needs a pinhole camera; use 'profile' for a panorama")
             self._ground = GroundMotion(horizontal_fov=horizontal_fov, camera_height=config.camera_height,
-                                        camera_forward=config.camera_forward)
+                                        camera_forward=config.camera_forward, near_row=config.near_floor_row)
         self._alignment = self.transitions = None
         self._speed = 0.0  # m/s, the last speed measured off a transition (held across one)
         self._finest: np.ndarray | None = None  # the last image blurred, with gradients (eqs. R1–R2)

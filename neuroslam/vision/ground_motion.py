@@ -176,9 +176,10 @@ class GroundMotion:
             images.append(blurred_with_gradients(reduced, self.smoothing))
         return images
 
-    def _floor(self, shape: tuple[int, int]) -> tuple:
-        """Per image size: focal length, centre, the floor pixels' flat indices and their ground points q."""
-        cached = self._geometry.get(shape)
+    def _floor(self, shape: tuple[int, int], near_only: bool = False) -> tuple:
+        """Per image size: focal length, centre, the floor pixels' flat indices and their ground points q
+        (with ``near_only``, those of eq. G4's near floor alone)."""
+        cached = self._geometry.get((shape, near_only))
         if cached is not None:
             return cached
         rows, columns = shape
@@ -190,9 +191,12 @@ class GroundMotion:
         u, v = u.ravel(), v.ravel()
         depth = self.camera_height * focal / (v - centre_v)  # eq. G1 solved for x - a
         ground = np.stack([depth + self.camera_forward, -(u - centre_u) * depth / focal]).astype(np.float32)
-        near = v >= centre_v + self.near_row * rows / 2  # the near floor of eq. G4
-        cached = (focal, centre_u, centre_v, v * columns + u, ground, near)
-        self._geometry[shape] = cached
+        indices = v * columns + u
+        if near_only:  # the near floor of eq. G4
+            near = v >= centre_v + self.near_row * rows / 2
+            indices, ground = indices[near], np.ascontiguousarray(ground[:, near])
+        cached = (focal, centre_u, centre_v, indices, ground)
+        self._geometry[(shape, near_only)] = cached
         return cached
 
     def step(self, grey_image: np.ndarray) -> tuple[float, float]:
@@ -219,9 +223,7 @@ class GroundMotion:
             finest = level == len(current) - 1  # coarser levels only start the next: stop them sooner
             distance, turn = self._align(old, new, distance, turn, prior, tolerance=1.0 if finest else 5.0)
         if self.near_row > 0:  # eq. G4: the yaw again on the near floor alone, from the full solution
-            support = self.support
             near_turn, information = self._align(previous[-1], current[-1], distance, turn, prior, near_only=True)
-            self.support = support
             if (information >= self.near_information * (self.robust_scale / _PRIOR_TURN) ** 2
                     and abs(near_turn - turn) <= self.near_tolerance):
                 turn = near_turn
@@ -234,7 +236,7 @@ class GroundMotion:
         With ``near_only``, eq. G4: the yaw alone over the near floor, the distance held; returns the yaw and
         the near floor's information on it (Σ w J_w² at the last iteration) instead.
         """
-        focal, centre_u, centre_v, indices, ground, near = self._floor(new.shape[1:])
+        focal, centre_u, centre_v, indices, ground = self._floor(new.shape[1:], near_only)
         rows, columns = old.shape[1:]
         target = new[0].ravel()[indices]
         qx, qy = ground
@@ -259,13 +261,11 @@ class GroundMotion:
             # chain rule through eq. G1 and G2
             d_py = -focal * gradient_u * inverse
             d_px = -(d_py * py + focal * h * gradient_v * inverse) * inverse
-            jacobian_distance = d_px * ch + d_py * sh
             jacobian_turn = d_px * (-distance / 2 * sh - s * qx - c * qy) + d_py * (distance / 2 * ch + c * qx - s * qy)
             size = np.abs(residual)
             weight = self.robust_scale / np.maximum(size, self.robust_scale)  # Huber: 1 inside, scale / |r| outside
             weight *= visible
-            if near_only:
-                weight *= near
+            if near_only:  # eq. G4: the yaw alone (the support stays the whole floor's, eq. G3's)
                 wt = weight * jacobian_turn
                 information = float(wt @ jacobian_turn)
                 delta_turn = -(float(wt @ residual) + weight_turn * (turn - prior_turn)) / (information + weight_turn)
@@ -273,6 +273,7 @@ class GroundMotion:
                 if abs(delta_turn) < 1e-5 * tolerance:
                     break
                 continue
+            jacobian_distance = d_px * ch + d_py * sh
             wd, wt = weight * jacobian_distance, weight * jacobian_turn
             a11, a12, a22 = float(wd @ jacobian_distance), float(wd @ jacobian_turn), float(wt @ jacobian_turn)
             data_distance = float(wd @ residual)

@@ -49,6 +49,21 @@ def _wrap(angle: np.ndarray | float) -> np.ndarray | float:
     return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
 
 
+def _compose_all(poses: np.ndarray, relative: np.ndarray) -> np.ndarray:
+    """Row by row, ``relative`` (x, y, z, yaw; m, rad, in each pose's frame) applied to ``poses``, (K, 4)."""
+    c, s = np.cos(poses[:, 3]), np.sin(poses[:, 3])
+    return np.stack([poses[:, 0] + c * relative[:, 0] - s * relative[:, 1],
+                     poses[:, 1] + s * relative[:, 0] + c * relative[:, 1],
+                     poses[:, 2] + relative[:, 2], _wrap(poses[:, 3] + relative[:, 3])], axis=1)
+
+
+def _invert_all(relative: np.ndarray) -> np.ndarray:
+    """Row by row, the relative pose that undoes ``relative`` (x, y, z, yaw), (K, 4)."""
+    c, s = np.cos(relative[:, 3]), np.sin(relative[:, 3])
+    return np.stack([-(c * relative[:, 0] + s * relative[:, 1]), -(-s * relative[:, 0] + c * relative[:, 1]),
+                     -relative[:, 2], -relative[:, 3]], axis=1)
+
+
 @dataclass(frozen=True)
 class MapUpdate:
     """What one frame did to the map.
@@ -293,9 +308,12 @@ class ExperienceMap:
     def fuse(self, duplicates: dict[int, int]) -> np.ndarray:
         """Remove experiences that duplicate others (``duplicate: kept``; a kept one is no duplicate itself).
 
-        A duplicate's links are moved to the one it duplicates (links that would join an experience to
-        itself are dropped), the robot's pose is kept if it was at a duplicate, ids close up, and a
-        least-squares solve is started (the moved links hold the small offsets between the two).
+        A duplicate's links are moved to the one it duplicates, re-expressed through the duplicate's pose
+        relative to it (so a moved link says of the kept experience what it said of the duplicate, and the
+        map's shape is unchanged by the fusion: a duplicate lies within a metre and a few degrees of the
+        one it duplicates, and a link that took it for exactly there would bend the map by that offset at
+        every fused pair); links that would join an experience to itself are dropped, the robot's pose is
+        kept if it was at a duplicate, ids close up, and a least-squares solve is started.
         Returns the new id of every old experience, (N,).
         """
         n = self.size
@@ -304,6 +322,7 @@ class ExperienceMap:
             replacement[duplicate] = kept
         if np.any(np.isin(replacement[list(duplicates.values())], list(duplicates))):
             raise ValueError("a kept experience is itself a duplicate")
+        self._reexpress_links(replacement)
         keep = np.ones(n, dtype=bool)
         keep[list(duplicates)] = False
         remap = (np.cumsum(keep) - 1)[replacement]
@@ -330,6 +349,25 @@ class ExperienceMap:
             self._by_template.setdefault(int(template), []).append(experience)
         self._settled = False
         return remap
+
+    def _reexpress_links(self, replacement: np.ndarray) -> None:
+        """Rewrite the relative pose of every link whose source or target ``replacement`` moves onto another
+        experience (eq. 23's link, composed with the moved end's pose relative to its replacement)."""
+        links = self.links
+        moved = np.flatnonzero((replacement[links[:, 0]] != links[:, 0]) | (replacement[links[:, 1]] != links[:, 1]))
+        if len(moved) == 0:
+            return
+        poses = self.poses
+        distance, heading, facing, height = self._link_poses.data[moved].T
+        # the link as a relative pose (x, y, z, yaw) in its source's frame
+        relative = np.stack([distance * np.cos(heading), distance * np.sin(heading), height, facing], axis=1)
+        sources, targets = links[moved, 0], links[moved, 1]
+        # the old source seen from the new one, then the link, then on from the old target to the new one
+        relative = _compose_all(_compose_all(_invert_all(poses[replacement[sources]]), poses[sources]), relative)
+        relative = _compose_all(relative, _compose_all(_invert_all(poses[targets]), poses[replacement[targets]]))
+        self._link_poses.data[moved] = np.stack([np.hypot(relative[:, 0], relative[:, 1]),
+                                                 np.arctan2(relative[:, 1], relative[:, 0]),
+                                                 _wrap(relative[:, 3]), relative[:, 2]], axis=1)
 
     def absorb(self, other: ExperienceMap, template_offset: int, component_offset: int) -> None:
         """Append another map's experiences and links (a second loaded map) as components and sessions of

@@ -180,3 +180,40 @@ def test_a_confirmed_place_is_the_one_re_entered_not_the_neighbour_whose_codes_l
         following.update(7, np.array([code, 0.0, 0.0]), np.zeros(2), float(k))
     followed = following.update(7, np.array([2.2, 0.0, 0.0]), np.zeros(2), 3.0, place=0)
     assert not followed.loop_closure and followed.experience_id == 1
+
+
+def _link_pose(source: np.ndarray, target: np.ndarray) -> tuple[float, float, float, float]:
+    """Eq. 23's link (distance, heading, facing, height) that puts ``target`` exactly where it is from ``source``."""
+    dx, dy = target[:2] - source[:2]
+    c, s = math.cos(source[3]), math.sin(source[3])
+    x, y = c * dx + s * dy, -s * dx + c * dy
+    return math.hypot(x, y), math.atan2(y, x), target[3] - source[3], target[2] - source[2]
+
+
+def test_fusing_duplicates_a_little_apart_keeps_the_map_s_shape():
+    """A second pass along a straight lane made duplicates 0.2 m and 3 degrees off the first pass's
+    experiences (as a merged session's do). Fusing them must not bend the lane: each moved link is
+    re-expressed through its duplicate's offset, so the solved map stays exactly as it was; a link
+    taken to join the kept experiences themselves would make every fused pair disagree by the offset."""
+    kept = np.array([[float(k), 0.0, 0.0, 0.0] for k in range(6)])
+    offsets = [np.array([0.2, 0.1, 0.0, math.radians(3)]), np.array([-0.15, -0.1, 0.0, math.radians(-2)]),
+               np.array([0.1, -0.05, 0.0, math.radians(4)]), np.array([-0.2, 0.1, 0.0, math.radians(-3)])]
+    duplicates = np.array([kept[1 + k] + offset for k, offset in enumerate(offsets)])
+    poses = np.concatenate([kept, duplicates])
+    links = [(k, k + 1) for k in range(5)] + [(6 + k, 7 + k) for k in range(3)] + [(5, 6)]
+    state = {"poses": poses, "grid_codes": np.zeros((10, 3)), "direction_codes": np.zeros((10, 2)),
+             "template_ids": np.array([0, 1, 2, 3, 4, 5, 1, 2, 3, 4]), "creation_times": np.arange(10.0),
+             "links": np.array(links), "link_poses": np.array([_link_pose(poses[a], poses[b]) for a, b in links]),
+             "link_times": np.ones(len(links)), "link_weights": np.ones(len(links)),
+             "degree": np.bincount(np.array(links).ravel(), minlength=10), "components": np.zeros(10, dtype=int),
+             "sessions": np.zeros(10, dtype=int), "settled": np.bool_(True), "current": np.int64(9),
+             "relative": np.zeros(4), "loop_closures": np.int64(0), "component": np.int64(0), "session": np.int64(0)}
+    experience_map = ExperienceMap(ExperienceMapConfig(relaxation="least-squares"))
+    experience_map.load_state_dict(state)
+    remap = experience_map.fuse({6: 1, 7: 2, 8: 3, 9: 4})
+    assert experience_map.size == 6 and list(remap) == [0, 1, 2, 3, 4, 5, 1, 2, 3, 4]
+    experience_map._relax(0)
+    assert experience_map.poses == pytest.approx(kept, abs=1e-9)
+    assert _residuals(experience_map) == pytest.approx(np.zeros(len(experience_map.links)), abs=1e-9)
+    # the robot, which was at the last duplicate, is still where it was
+    assert experience_map.robot_pose() == pytest.approx(duplicates[-1], abs=1e-9)

@@ -1,0 +1,124 @@
+"""Where a drive's error comes from: the visual odometry's bias per level, and each loop closure's own error.
+
+Run: ``python benchmarks/error_sources.py [--worlds building gen:3 ...] [--laps 2] [--seed S] [--noise 0.5]
+[--preset sim] [--config FILE] [--max-frames N]``. A measurement, not a test: it asserts nothing and is not
+part of the pytest run.
+
+What it does: for each world, drives its main route once (the frames ``neuroslam drive`` sees, recorded by
+``benchmarks/sensitivity.py``'s :func:`record`), runs NeuroSLAM on them (with ``--seed``, uniform noise of
+±``--noise`` grey levels added, as that benchmark does) and prints, against the simulator's ground truth:
+
+- **odometry, per level** (each frame's self-motion against the true motion between the two frames):
+  distance read over distance driven (1.000 is exact), the worst 200-frame stretch (a floor whose marks run
+  along the path holds the last speed, or lets the pixel grid pull it to zero: both show here and not in a
+  level's total), frames read under half their true distance, and the yaw error summed over the level's
+  frames (degrees; what a loop closure has to take back) with its RMS per frame.
+- **loop closures**: for each closure, where the map puts the robot against the experience it re-entered
+  (``ExperienceMap.relative`` right after the closure: the link the closure adds) compared with where the
+  robot truly was relative to that experience's true pose at its creation. Median, 90th percentile and
+  largest horizontal error (m), the mean error along the experience's heading (m: positive when views are
+  recognised before the place is reached), and the median and largest yaw error (degrees). A closure within
+  the 2 m of ``false_loop_closures`` can still bend the map by its error.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+from sensitivity import record
+from tqdm import tqdm
+
+from neuroslam import presets
+from neuroslam.config import load_config
+from neuroslam.slam import NeuroSLAM
+from neuroslam.vision.preprocessing import grey
+
+
+def _wrap(angle: np.ndarray) -> np.ndarray:
+    return (angle + np.pi) % (2 * np.pi) - np.pi
+
+
+def odometry_rows(distances: np.ndarray, yaw_changes: np.ndarray, poses: np.ndarray, levels: np.ndarray) -> list[str]:
+    """One printed row per true level: distance ratio, worst stretch, collapses, yaw error sum and RMS."""
+    true_distance = np.r_[0.0, np.linalg.norm(np.diff(poses[:, :3], axis=0), axis=1)]
+    yaw_error = np.degrees(_wrap(yaw_changes - np.r_[0.0, _wrap(np.diff(poses[:, 3]))]))
+    rows = []
+    for level in np.unique(levels):
+        frames = np.flatnonzero(levels == level)
+        stretches = [distances[chunk].sum() / true_distance[chunk].sum()
+                     for chunk in np.array_split(frames, max(1, len(frames) // 200)) if true_distance[chunk].sum() > 1]
+        collapsed = int((distances[frames] < 0.5 * true_distance[frames]).sum())
+        read, driven = distances[frames].sum(), true_distance[frames].sum()
+        rows.append(f"  level {level:>2d}: {len(frames):5d} frames, distance read {read:7.1f} of {driven:7.1f} m "
+                    f"({read / driven:.3f}; "
+                    f"200-frame stretches {min(stretches, default=1):.3f}–{max(stretches, default=1):.3f}), "
+                    f"{collapsed} frames under half; yaw error {yaw_error[frames].sum():+6.1f}° "
+                    f"(RMS {np.sqrt(np.mean(yaw_error[frames] ** 2)):.3f}° a frame)")
+    return rows
+
+
+def closure_errors(closures: list[tuple[int, int, np.ndarray]], creation_frames: np.ndarray, poses: np.ndarray
+                   ) -> np.ndarray:
+    """(K, 4) each closure's link error (x along the experience's true heading, y left, z, yaw; m, rad):
+    the robot's pose relative to the re-entered experience as the map has it, less the true one."""
+    errors = []
+    for frame, experience, relative in closures:
+        then, now = poses[creation_frames[experience]], poses[frame]
+        c, s = np.cos(then[3]), np.sin(then[3])
+        dx, dy = now[0] - then[0], now[1] - then[1]
+        true = np.array([c * dx + s * dy, -s * dx + c * dy, now[2] - then[2], _wrap(now[3] - then[3])])
+        error = relative - true
+        error[3] = _wrap(error[3])
+        errors.append(error)
+    return np.array(errors).reshape(-1, 4)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--worlds", nargs="+", default=["building", "gen:3"], help="worlds to drive")
+    parser.add_argument("--laps", type=int, default=2)
+    parser.add_argument("--seed", type=int, default=None, help="add seeded noise to the frames (default: none)")
+    parser.add_argument("--noise", type=float, default=0.5, help="uniform noise amplitude, grey levels of 255")
+    parser.add_argument("--preset", default="sim")
+    parser.add_argument("--config", default=None, help="TOML or JSON settings over the preset")
+    parser.add_argument("--max-frames", type=int, default=None, help="cut each drive short (a quick check)")
+    args = parser.parse_args()
+    if args.laps < 1 or not args.noise > 0:
+        parser.error(f"need --laps >= 1 and --noise > 0 (got {args.laps}, {args.noise})")
+    config = presets.get(args.preset)
+    if args.config is not None:
+        config = load_config(args.config, base=config)
+    for world_name in args.worlds:
+        _world, images, times, poses, levels = record(world_name, args.laps, args.max_frames)
+        rng = None if args.seed is None else np.random.default_rng(args.seed)
+        slam = NeuroSLAM(config)
+        distances, yaw_changes, closures = [], [], []
+        for index, (image, time) in enumerate(zip(tqdm(images, desc="slam", leave=False), times, strict=True)):
+            if rng is not None:
+                image = np.clip(grey(image) + rng.uniform(-args.noise, args.noise, image.shape[:2]).astype(np.float32)
+                                / 255, 0.0, 1.0)
+            estimate = slam.step(image, float(time))
+            dt = time - times[index - 1] if index else 0.0
+            distances.append(estimate.self_motion.forward_speed * dt)
+            yaw_changes.append(estimate.self_motion.yaw_rate * dt)
+            if estimate.loop_closure:
+                closures.append((index, estimate.experience_id, slam.experience_map.relative.copy()))
+        themap = slam.experience_map
+        creation_frames = np.minimum(np.searchsorted(times, themap.creation_times), len(times) - 1)
+        print(f"{world_name} ({len(images)} frames{'' if args.seed is None else f', noise seed {args.seed}'})")
+        print("\n".join(odometry_rows(np.array(distances), np.array(yaw_changes), poses, levels)))
+        errors = closure_errors(closures, creation_frames, poses)
+        if len(errors):
+            horizontal = np.hypot(errors[:, 0], errors[:, 1])
+            yaw = np.degrees(np.abs(errors[:, 3]))
+            print(f"  {len(errors)} loop closures: horizontal error median {np.median(horizontal):.2f} m, "
+                  f"90th percentile {np.percentile(horizontal, 90):.2f} m, largest {horizontal.max():.2f} m; "
+                  f"along the heading {errors[:, 0].mean():+.2f} m on average; yaw error median "
+                  f"{np.median(yaw):.1f}°, largest {yaw.max():.1f}°", flush=True)
+        else:
+            print("  no loop closures", flush=True)
+
+
+if __name__ == "__main__":
+    main()

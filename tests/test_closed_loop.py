@@ -1,12 +1,12 @@
 """Closed loop against ground truth: two laps of a world's main route, camera only, default settings.
 
-These are issue 4's accuracy properties, asserted on the drive the README's main command runs (the car
-park), on urban and on three generated worlds (1–2 minutes each here). The README's accuracy table lists
-every world's numbers, the building's too (1.91 m, met on its drive, but not asserted here: a 15-minute
-lap, and 2.03–2.04 m on two copies of its frames with imperceptible noise). In the three runs of
-`benchmarks/sensitivity.py --seeds 2` (the recorded frames and two noisy copies) the car park, urban,
-gen:1 and gen:2 met them every time (gen:2's ratio the closest call, 0.48); gen:3 met them on the
-recorded frames, which this test drives, but not on the noisy copies (ratio 0.67–0.70).
+These are issue 4's accuracy properties, asserted on every world of the README's accuracy table: the drive
+the README's main command runs (the car park), urban, the building and three generated worlds (1–2 minutes
+each here). In the three runs of `benchmarks/sensitivity.py --seeds 2` (the recorded frames and two noisy
+copies) the car park, urban, gen:1 and gen:2 met them every time (gen:2's ratio the closest call, 0.48);
+the building and gen:3 met them on the recorded frames, which this test drives, but not on every noisy copy
+(the building 2.03–2.04 m, gen:3's ratio 0.67–0.70): their margins are thin, and this test is where a change
+that costs them shows.
 """
 
 import json
@@ -15,7 +15,7 @@ import pytest
 
 from neuroslam.cli import main
 
-WORLDS = ["carpark", "urban", "gen:1", "gen:2", "gen:3"]
+WORLDS = ["carpark", "urban", "building", "gen:1", "gen:2", "gen:3"]
 
 
 @pytest.fixture(scope="module", params=WORLDS)
@@ -38,7 +38,7 @@ def test_slam_halves_the_visual_odometry_error_and_stays_within_two_metres(metri
 def test_no_false_loop_closure_and_a_true_one_on_every_level(metrics):
     assert metrics["false_loop_closures"] == 0
     per_level = metrics["true_loop_closures_per_level"]
-    assert metrics["levels_visited"] == [0, 1]
+    assert metrics["levels_visited"] == list(range(len(metrics["levels"])))  # every main route visits every floor
     assert all(per_level[str(level)] >= 1 for level in metrics["levels_visited"])
 
 

@@ -127,9 +127,13 @@ def _parser() -> argparse.ArgumentParser:
         description="Run NeuroSLAM on a folder of PNG/JPEG frames (natural order; a frames/ subfolder is used if "
         "present) and write slam.tum, slam_online.tum, odometry.tum, experiences.tum, map.npz and metrics.json; with "
         "--groundtruth (TUM, whose times become the frames' times, or the NeuroSLAM CSV frame,x,y,z,rx,ry,rz) "
-        "metrics.json adds the trajectory and map errors.")
+        "metrics.json adds the distance driven and the trajectory and map errors, and with the floor heights "
+        "(--levels, or the levels of the folder's dataset.json, which neuroslam record writes) the floors "
+        "visited, the level accuracy and loop closures judged by floor, as neuroslam drive scores them.")
     run.add_argument("frames", type=Path, help="folder of frames (for example one written by neuroslam record)")
     run.add_argument("--groundtruth", type=Path, help="ground truth: TUM or NeuroSLAM CSV, one row per frame")
+    run.add_argument("--levels", type=float, nargs="+", metavar="HEIGHT",
+                     help="floor heights in metres, increasing (default: those of the folder's dataset.json, if any)")
     run.add_argument("--rate", type=_positive_float, default=10.0,
                      help="frames per second when the ground truth gives no times (default: 10)")
     run.add_argument("--max-frames", type=_positive_int, help="use only the first N frames")
@@ -139,8 +143,9 @@ def _parser() -> argparse.ArgumentParser:
 
     record = commands.add_parser(
         "record", help="save a simulated drive as a dataset of frames and ground truth",
-        description="Drive a route and save frames/NNNNNN.png, groundtruth.tum and wheel_odometry.tum, a dataset "
-        "that neuroslam run (or any other SLAM system) can replay.")
+        description="Drive a route and save frames/NNNNNN.png, groundtruth.tum, wheel_odometry.tum and "
+        "dataset.json (world, route and floor heights), a dataset that neuroslam run (or any other SLAM system) "
+        "can replay.")
     record.add_argument("world", help="built-in world name, gen:SEED, or an MJCF file")
     _drive_options(record, laps=1, camera=True)
     record.add_argument("--out", type=Path, required=True, help="dataset folder to write")
@@ -488,10 +493,21 @@ def _run(args: argparse.Namespace) -> int:
     """NeuroSLAM on a folder of recorded frames."""
     from tqdm import tqdm
 
-    from .datasets import DatasetError, check_frame_sizes, frame_times, list_frames, load_frame, read_groundtruth
+    from .datasets import (
+        DatasetError,
+        check_frame_sizes,
+        check_levels,
+        frame_times,
+        list_frames,
+        load_frame,
+        read_description,
+        read_groundtruth,
+    )
     from .evaluation import run_metrics
 
     frames = list_frames(args.frames)
+    description = read_description(args.frames)
+    levels = check_levels(args.levels, "--levels") if args.levels is not None else description.levels
     groundtruth = read_groundtruth(args.groundtruth) if args.groundtruth is not None else None
     if groundtruth is not None and len(groundtruth.positions) != len(frames):
         raise DatasetError(f"ground truth {str(args.groundtruth)!r}: {len(groundtruth.positions)} rows for "
@@ -510,12 +526,19 @@ def _run(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     recorder = _recorder(args, out, Path(args.frames).resolve().name)
     truth = None if groundtruth is None else groundtruth.poses
+    # each frame's floor: the level nearest the true height, as the simulator gives it (sim.World.level_of)
+    true_levels = (None if truth is None or levels is None
+                   else np.abs(truth[:, 2:3] - np.array(levels)[None, :]).argmin(axis=1))
     estimates, self_motion, closures, merges, active = [], [], [], [], []
     started = time.perf_counter()
+    slam_seconds = 0.0
     for index, path in enumerate(tqdm(frames, unit="frame", desc=Path(args.frames).name)):
         image = load_frame(path)
+        slam_started = time.perf_counter()
         estimate = slam.step(image, float(times[index]))
-        book.add_frame(float(times[index]), None if truth is None else truth[index])
+        slam_seconds += time.perf_counter() - slam_started
+        book.add_frame(float(times[index]), None if truth is None else truth[index],
+                       -1 if true_levels is None else int(true_levels[index]))
         if recorder is not None:
             recorder.log_frame(float(times[index]), image, slam, estimate, None if truth is None else truth[index])
         estimates.append(estimate.pose)
@@ -530,27 +553,48 @@ def _run(args: argparse.Namespace) -> int:
     _write_slam(out, times, estimates, online, self_motion, slam)
     _save_map(slam, out, book, {"frames": str(Path(args.frames).resolve())})
     experience_map = slam.experience_map
-    metrics = {"frames": len(frames), "templates": slam.local_view.count, "experiences": experience_map.size,
+    positions = None if groundtruth is None else groundtruth.positions
+    metrics = {"world": description.world or Path(args.frames).resolve().name, "route": description.route,
+               "frames": len(frames),
+               "distance_m": None if positions is None else float(np.sum(np.linalg.norm(np.diff(positions, axis=0),
+                                                                                        axis=1))),
+               "levels": None if levels is None else list(levels),
+               "levels_visited": None if true_levels is None else sorted({int(level) for level in true_levels}),
+               "height_range_m": None if positions is None else [float(positions[:, 2].min()),
+                                                                 float(positions[:, 2].max())],
+               "odometry": "visual", "templates": slam.local_view.count, "experiences": experience_map.size,
                "map_components": len(np.unique(experience_map.components)),
                "loop_closures": experience_map.loop_closures}
     if args.load_map:
         metrics.update(merges=len(slam.merges), merge_frames=[frame for frame, _ in slam.merges])
     if groundtruth is not None:
         metrics.update(run_metrics(
-            truth=groundtruth.poses, true_levels=None, levels=None, estimate=estimates, odometry=self_motion,
-            online_estimate=online, **_event_arguments(slam, book, closures, merges if args.load_map else None)))
-    metrics["ms_per_frame"] = {"total": 1000 * elapsed / len(frames)}
+            truth=groundtruth.poses, true_levels=true_levels, levels=None if levels is None else np.array(levels),
+            estimate=estimates, odometry=self_motion, online_estimate=online,
+            **_event_arguments(slam, book, closures, merges if args.load_map else None)))
+    # recorded frames: no physics and no rendering; "read" is decoding the image files
+    metrics["ms_per_frame"] = {"slam": 1000 * slam_seconds / len(frames), "physics": None, "render": None,
+                               "read": 1000 * (elapsed - slam_seconds) / len(frames),
+                               "total": 1000 * elapsed / len(frames)}
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     _report(out / "report.png", Path(args.frames).name, times, None if groundtruth is None else groundtruth.poses,
             estimates, self_motion, slam, np.array(active))
-    rows = [("frames", str(len(frames))),
-            ("map", f"{metrics['templates']} templates, {metrics['experiences']} experiences, "
-                    f"{metrics['loop_closures']} loop closures")]
+    rows = [("frames", str(len(frames)))]
+    if positions is not None:
+        rows.append(("distance", f"{metrics['distance_m']:.1f} m"))
+    if true_levels is not None:
+        rows.append(("levels visited", f"{metrics['levels_visited']} of {list(range(len(levels)))}"))
+    false = "" if groundtruth is None else f" ({metrics['false_loop_closures']} false)"
+    rows.append(("map", f"{metrics['templates']} templates, {metrics['experiences']} experiences, "
+                        f"{metrics['loop_closures']} loop closures{false}"))
     if groundtruth is not None:
         rows.append(("ATE (Sim(3))", f"SLAM {_metres(metrics['ate_rmse_m']['slam'])} "
                                      f"(online {_metres(metrics['ate_rmse_m']['slam_online'])}), "
                                      f"odometry {_metres(metrics['ate_rmse_m']['odometry'])}"))
-    rows += [("ms per frame", f"{metrics['ms_per_frame']['total']:.2f} (reading images included)"),
+        if metrics["level_accuracy"] is not None:
+            rows.append(("level accuracy", f"{metrics['level_accuracy']:.2f}"))
+    rows += [("ms per frame", "SLAM {slam:.2f}, reading images {read:.2f}, total {total:.2f}".format(
+                 **metrics["ms_per_frame"])),
              ("output", str(out))]
     _print_rows(rows)
     return 0
@@ -563,6 +607,7 @@ def _record(args: argparse.Namespace) -> int:
 
     import sim
 
+    from .datasets import DatasetDescription, write_description
     from .tum import write_tum, yaw_quaternion
 
     world, route = _world_and_route(args)
@@ -583,6 +628,7 @@ def _record(args: argparse.Namespace) -> int:
               np.array([t.quaternion for t in truths]))
     write_tum(out / "wheel_odometry.tum", times, np.array([[o.x, o.y, 0.0] for o in odometry]),
               yaw_quaternion(np.array([o.yaw for o in odometry])))
+    write_description(out, DatasetDescription(world.name, drive.route.name, tuple(world.levels)))
     _print_rows([("world / route", f"{world.name} / {drive.route.name}"), ("frames", str(len(times))),
                  ("output", str(out))])
     return 0

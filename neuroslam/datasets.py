@@ -2,12 +2,16 @@
 
 A dataset folder holds PNG or JPEG frames, taken in natural order (``frame2`` before ``frame10``), and
 optionally ground truth in TUM format (``t x y z qx qy qz qw``, which also gives the frames' times) or in
-the NeuroSLAM CSV format (``frame,x,y,z,rx,ry,rz``, angles in radians, no header). ``neuroslam record``
-writes such folders (frames in ``frames/``, ``groundtruth.tum``, ``wheel_odometry.tum``).
+the NeuroSLAM CSV format (``frame,x,y,z,rx,ry,rz``, angles in radians, no header), and optionally a
+description ``dataset.json`` (:func:`read_description`: where it was recorded and the floor heights, so that a
+replay is scored per floor as the drive was). ``neuroslam record`` writes such folders (frames in
+``frames/``, ``groundtruth.tum``, ``wheel_odometry.tum``, ``dataset.json``).
 """
 
 from __future__ import annotations
 
+import itertools
+import json
 import math
 import re
 from dataclasses import dataclass
@@ -17,9 +21,11 @@ import numpy as np
 
 from .errors import NeuroSLAMError
 
-__all__ = ["DatasetError", "GroundTruth", "check_frame_sizes", "list_frames", "load_frame", "read_groundtruth"]
+__all__ = ["DESCRIPTION_FILE", "DatasetDescription", "DatasetError", "GroundTruth", "check_frame_sizes",
+           "check_levels", "list_frames", "load_frame", "read_description", "read_groundtruth", "write_description"]
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
+DESCRIPTION_FILE = "dataset.json"
 
 
 class DatasetError(NeuroSLAMError, ValueError):
@@ -38,6 +44,70 @@ class GroundTruth:
     def poses(self) -> np.ndarray:
         """(N, 4) x, y, z, yaw."""
         return np.column_stack([self.positions, self.yaw])
+
+
+@dataclass(frozen=True)
+class DatasetDescription:
+    """What a dataset's ``dataset.json`` says: the world and route it was recorded on (names, or None) and
+    the heights of its floors (m, increasing, or None), by which the ground truth's frames get their floor."""
+
+    world: str | None = None
+    route: str | None = None
+    levels: tuple[float, ...] | None = None
+
+
+def check_levels(levels, name: str = "levels") -> tuple[float, ...]:
+    """Floor heights (m) as a tuple: at least one, finite and strictly increasing.
+
+    Raises:
+        DatasetError: naming ``name`` and the value.
+    """
+    try:
+        values = tuple(float(level) for level in levels)
+    except (TypeError, ValueError):
+        raise DatasetError(f"{name}={levels!r}: must be a list of floor heights in metres") from None
+    if not values or not all(math.isfinite(v) for v in values) or any(b <= a for a, b in itertools.pairwise(values)):
+        raise DatasetError(f"{name}={list(values)!r}: must be one or more finite heights (m), strictly increasing")
+    return values
+
+
+def read_description(folder: str | Path) -> DatasetDescription:
+    """The ``dataset.json`` of a dataset folder (a JSON object with optional ``world`` and ``route`` names and
+    ``levels``, floor heights in m); an empty description when there is none.
+
+    Raises:
+        DatasetError: the file exists but is unreadable, not a JSON object, or has a field of the wrong type.
+    """
+    path = Path(folder) / DESCRIPTION_FILE
+    if not path.is_file():
+        return DatasetDescription()
+    try:
+        content = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise DatasetError(f"dataset description {str(path)!r}: not readable JSON ({error})") from None
+    if not isinstance(content, dict):
+        raise DatasetError(f"dataset description {str(path)!r}: must be a JSON object")
+    for key in ("world", "route"):
+        if content.get(key) is not None and not isinstance(content[key], str):
+            raise DatasetError(f"dataset description {str(path)!r}: {key}={content[key]!r} must be a name")
+    levels = content.get("levels")
+    if levels is not None:
+        if not isinstance(levels, list):
+            raise DatasetError(f"dataset description {str(path)!r}: levels={levels!r} must be a list of heights (m)")
+        try:
+            levels = check_levels(levels)
+        except DatasetError as error:
+            raise DatasetError(f"dataset description {str(path)!r}: {error}") from None
+    return DatasetDescription(content.get("world"), content.get("route"), levels)
+
+
+def write_description(folder: str | Path, description: DatasetDescription) -> Path:
+    """Write ``folder/dataset.json``; returns its path."""
+    path = Path(folder) / DESCRIPTION_FILE
+    content = {"world": description.world, "route": description.route,
+               "levels": None if description.levels is None else list(description.levels)}
+    path.write_text(json.dumps(content, indent=2) + "\n")
+    return path
 
 
 def _natural_key(path: Path) -> list:

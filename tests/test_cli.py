@@ -91,6 +91,7 @@ def test_bad_files_give_one_line_and_exit_code_2(tmp_path):
     cases = [
         (["run", str(tmp_path / "missing")], "missing"),
         (["run", str(mixed)], "000001.png': 80x60 pixels, but the first frame"),
+        (["run", str(mixed), "--levels", "3", "0"], "--levels=[3.0, 0.0]: must be one or more finite heights"),
         (["drive", "carpark", "--max-frames", "2", "--config", str(config)], "grid_cells.size"),
         (["drive", "carpark", "--max-frames", "2", "--load-map", str(tmp_path / "none.npz")], "does not exist"),
         (["drive", "carpark", "--max-frames", "2", "--load-map", str(config)], "truncated or corrupted"),

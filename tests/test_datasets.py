@@ -7,7 +7,15 @@ import pytest
 from PIL import Image
 
 from neuroslam.cli import main
-from neuroslam.datasets import DatasetError, frame_times, list_frames, load_frame, read_groundtruth
+from neuroslam.datasets import (
+    DatasetDescription,
+    DatasetError,
+    frame_times,
+    list_frames,
+    load_frame,
+    read_description,
+    read_groundtruth,
+)
 
 
 def test_frames_in_natural_order(tmp_path):
@@ -59,7 +67,8 @@ def test_record_then_run_with_ground_truth(tmp_path, capsys):
     assert len(list((dataset / "frames").glob("*.png"))) == 40
     assert main(["run", str(dataset), "--groundtruth", str(dataset / "groundtruth.tum"), "--out", str(run)]) == 0
     metrics = json.loads((run / "metrics.json").read_text())
-    assert metrics["frames"] == 40 and metrics["ate_rmse_m"]["slam"] >= 0 and metrics["level_accuracy"] is None
+    assert metrics["frames"] == 40 and metrics["ate_rmse_m"]["slam"] >= 0
+    assert metrics["levels_visited"] == [0] and metrics["level_accuracy"] == 1.0  # floors from dataset.json
     for name in ("slam.tum", "slam_online.tum", "odometry.tum", "experiences.tum", "report.png", "map.npz"):
         assert (run / name).is_file()
     # a second session over the same frames, holding the first one's map
@@ -71,3 +80,45 @@ def test_record_then_run_with_ground_truth(tmp_path, capsys):
     # a folder of frames without ground truth runs too, timed by --rate
     assert main(["run", str(dataset / "frames"), "--rate", "5", "--out", str(tmp_path / "bare")]) == 0
     assert "ate_rmse_m" not in json.loads((tmp_path / "bare" / "metrics.json").read_text())
+
+
+def test_a_recorded_drive_replayed_scores_as_the_drive_did(tmp_path):
+    """`record` then `run` on its folder gives the metrics `drive` gives on the same frames: the dataset's
+    description carries the world, route and floor heights, so floors, level accuracy and closures judged by
+    floor are scored on a replay too (ground truth read back from TUM: equal to its printed precision)."""
+    dataset = tmp_path / "dataset"
+    assert main(["record", "gen:2", "--max-frames", "120", "--out", str(dataset)]) == 0
+    assert json.loads((dataset / "dataset.json").read_text()) == {"world": "gen:2", "route": "main",
+                                                                   "levels": [0.0, 3.02]}
+    assert main(["drive", "gen:2", "--max-frames", "120", "--out", str(tmp_path / "drive")]) == 0
+    assert main(["run", str(dataset), "--groundtruth", str(dataset / "groundtruth.tum"),
+                 "--out", str(tmp_path / "run")]) == 0
+    drive = json.loads((tmp_path / "drive" / "metrics.json").read_text())
+    replay = json.loads((tmp_path / "run" / "metrics.json").read_text())
+    for key in ("world", "route", "frames", "levels", "levels_visited", "odometry", "templates", "experiences",
+                "loop_closures", "false_loop_closures", "true_loop_closures_per_level"):
+        assert replay[key] == drive[key], key
+    assert replay["levels_visited"] == [0] and replay["level_accuracy"] == drive["level_accuracy"] == 1.0
+    for key in ("distance_m", "map_rmse_m"):
+        assert replay[key] == pytest.approx(drive[key], abs=1e-5), key
+    for key in ("ate_rmse_m", "ate_se3_rmse_m", "rpe_rmse_m"):
+        assert replay[key] == pytest.approx(drive[key], abs=1e-5), key
+    assert replay["ms_per_frame"]["render"] is None and replay["ms_per_frame"]["slam"] > 0
+    # floor heights given on the command line take the description's place
+    assert main(["run", str(dataset), "--groundtruth", str(dataset / "groundtruth.tum"), "--levels", "-3", "0",
+                 "--out", str(tmp_path / "levels")]) == 0
+    assert json.loads((tmp_path / "levels" / "metrics.json").read_text())["levels_visited"] == [1]
+
+
+@pytest.mark.parametrize("content, text", [
+    ("[1, 2]", "must be a JSON object"),
+    ('{"levels": [3, 0]}', "strictly increasing"),
+    ('{"levels": "0 3"}', "must be a list of heights"),
+    ('{"world": 7}', "world=7 must be a name"),
+    ("{levels", "not readable JSON"),
+])
+def test_a_bad_dataset_description_is_named(tmp_path, content, text):
+    (tmp_path / "dataset.json").write_text(content)
+    with pytest.raises(DatasetError, match=text):
+        read_description(tmp_path)
+    assert read_description(tmp_path / "elsewhere") == DatasetDescription()  # none: an empty description

@@ -300,10 +300,7 @@ def _drive(args: argparse.Namespace) -> int:
         "route": drive.route.name,
         "frames": frames,
         "laps": drive.laps_completed,
-        "distance_m": float(np.sum(np.linalg.norm(np.diff(positions, axis=0), axis=1))),
-        "levels": list(world.levels),
-        "levels_visited": sorted({int(level) for level in true_levels}),
-        "height_range_m": [float(positions[:, 2].min()), float(positions[:, 2].max())],
+        **_path_summary(positions, true_levels, world.levels),
         "odometry": args.odometry,
         "templates": slam.local_view.count,
         "experiences": experience_map.size,
@@ -342,6 +339,16 @@ def _drive(args: argparse.Namespace) -> int:
                                      f"({summary['false_merges']} false); {summary['map_components']} separate maps"))
     _print_rows(rows)
     return 0
+
+
+def _path_summary(positions: np.ndarray | None, true_levels: np.ndarray | None, levels) -> dict:
+    """metrics.json's ``distance_m``, ``levels``, ``levels_visited`` and ``height_range_m`` of a run's true
+    positions (N × 3, m; None when unknown, and then those keys are None but ``levels``)."""
+    known = positions is not None
+    return {"distance_m": float(np.sum(np.linalg.norm(np.diff(positions, axis=0), axis=1))) if known else None,
+            "levels": None if levels is None else list(levels),
+            "levels_visited": None if true_levels is None else sorted({int(level) for level in true_levels}),
+            "height_range_m": [float(positions[:, 2].min()), float(positions[:, 2].max())] if known else None}
 
 
 def _write_slam(out: Path, times: np.ndarray, estimates: np.ndarray, online: np.ndarray, self_motion: np.ndarray,
@@ -503,7 +510,7 @@ def _run(args: argparse.Namespace) -> int:
         read_description,
         read_groundtruth,
     )
-    from .evaluation import run_metrics
+    from .evaluation import nearest_level, run_metrics
 
     frames = list_frames(args.frames)
     description = read_description(args.frames)
@@ -527,8 +534,7 @@ def _run(args: argparse.Namespace) -> int:
     recorder = _recorder(args, out, Path(args.frames).resolve().name)
     truth = None if groundtruth is None else groundtruth.poses
     # each frame's floor: the level nearest the true height, as the simulator gives it (sim.World.level_of)
-    true_levels = (None if truth is None or levels is None
-                   else np.abs(truth[:, 2:3] - np.array(levels)[None, :]).argmin(axis=1))
+    true_levels = None if truth is None or levels is None else nearest_level(truth[:, 2], levels)
     estimates, self_motion, closures, merges, active = [], [], [], [], []
     started = time.perf_counter()
     slam_seconds = 0.0
@@ -556,12 +562,7 @@ def _run(args: argparse.Namespace) -> int:
     positions = None if groundtruth is None else groundtruth.positions
     metrics = {"world": description.world or Path(args.frames).resolve().name, "route": description.route,
                "frames": len(frames),
-               "distance_m": None if positions is None else float(np.sum(np.linalg.norm(np.diff(positions, axis=0),
-                                                                                        axis=1))),
-               "levels": None if levels is None else list(levels),
-               "levels_visited": None if true_levels is None else sorted({int(level) for level in true_levels}),
-               "height_range_m": None if positions is None else [float(positions[:, 2].min()),
-                                                                 float(positions[:, 2].max())],
+               **_path_summary(positions, true_levels, levels),
                "odometry": "visual", "templates": slam.local_view.count, "experiences": experience_map.size,
                "map_components": len(np.unique(experience_map.components)),
                "loop_closures": experience_map.loop_closures}

@@ -19,7 +19,7 @@ from .trajectory import umeyama
 FLOOR_TOLERANCE = 0.1
 
 __all__ = ["FLOOR_TOLERANCE", "align", "false_loop_closure_mask", "false_loop_closures", "level_accuracy",
-           "rpe_rmse", "run_metrics"]
+           "nearest_level", "rpe_rmse", "run_metrics"]
 
 
 def align(estimate: np.ndarray, truth: np.ndarray, *, with_scale: bool = True) -> np.ndarray:
@@ -56,11 +56,15 @@ def rpe_rmse(estimate: np.ndarray, truth: np.ndarray, *, segment: float = 10.0) 
     return float(math.sqrt(np.mean(errors**2)))
 
 
+def nearest_level(heights: np.ndarray, levels: np.ndarray) -> np.ndarray:
+    """(N,) index of the floor (heights ``levels``, m) nearest each of ``heights`` (N, m)."""
+    levels = np.asarray(levels, dtype=float)
+    return np.abs(np.asarray(heights, dtype=float).reshape(-1)[:, None] - levels[None]).argmin(axis=1)
+
+
 def level_accuracy(aligned_heights: np.ndarray, true_levels: np.ndarray, levels: np.ndarray) -> float:
     """Share of frames whose (aligned) estimated height is nearest to the floor of their true level."""
-    levels = np.asarray(levels, dtype=float)
-    nearest = np.abs(np.asarray(aligned_heights, dtype=float)[:, None] - levels[None]).argmin(axis=1)
-    return float(np.mean(nearest == np.asarray(true_levels)))
+    return float(np.mean(nearest_level(aligned_heights, levels) == np.asarray(true_levels)))
 
 
 def false_loop_closure_mask(positions_now: np.ndarray, positions_then: np.ndarray, levels_now: np.ndarray,

@@ -189,6 +189,8 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--grid", nargs="+", default=[], metavar="FIELD=V1,V2",
                        help="configuration fields to vary over the sim preset, every combination "
                        "(e.g. local_view.threshold=0.05,0.07 experience_map.loop_closure=code,confirmed)")
+    sweep.add_argument("--odometry", choices=["visual", "wheel", "visual-inertial"], default="visual",
+                       help="each drive's self-motion, as for drive (default: visual)")
     sweep.add_argument("--workers", type=_positive_int, help="CPUs of the local Ray instance (default: all)")
     sweep.add_argument("--address", help="address of a running Ray cluster (default: start one locally)")
     sweep.add_argument("--out", type=Path, required=True, help="output folder (results.csv, drives/)")
@@ -754,7 +756,7 @@ def _sweep(args: argparse.Namespace) -> int:
 
     worlds, grid = expand_worlds(args.worlds), parse_grid(args.grid)
     rows, failed = run_sweep(worlds, args.seeds, grid, args.out, laps=args.laps, max_frames=args.max_frames,
-                             workers=args.workers, address=args.address)
+                             workers=args.workers, address=args.address, odometry=args.odometry)
     grid_fields = sorted({field for setting in grid for field, _ in setting})
     table = summary(rows, grid_fields)
     widths = [max(len(str(line[k])) for line in table) for k in range(len(table[0]))]

@@ -124,7 +124,11 @@ def flatten(data: dict, prefix: str = "") -> dict[str, Any]:
     return flat
 
 
-def _run_drive(world: str, seed: int, setting: tuple, laps: int, max_frames: int | None, folder: str) -> dict:
+ODOMETRY = ("visual", "wheel", "visual-inertial")
+
+
+def _run_drive(world: str, seed: int, setting: tuple, laps: int, max_frames: int | None, folder: str,
+               odometry: str = "visual") -> dict:
     """One drive in a worker process: ``neuroslam drive`` with the setting as a config file; its metrics, or
     the one-line error of a failed drive."""
     import contextlib
@@ -134,7 +138,7 @@ def _run_drive(world: str, seed: int, setting: tuple, laps: int, max_frames: int
 
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
-    arguments = ["drive", world, "--seed", str(seed), "--laps", str(laps), "--out", str(out)]
+    arguments = ["drive", world, "--seed", str(seed), "--laps", str(laps), "--out", str(out), "--odometry", odometry]
     if max_frames is not None:
         arguments += ["--max-frames", str(max_frames)]
     if setting:
@@ -176,12 +180,16 @@ def _write_results(path: Path, rows: list[dict[str, Any]], grid_fields: list[str
 
 def run_sweep(worlds: list[str], seeds: int, grid: list[tuple], out: Path, *, laps: int = 2,
               max_frames: int | None = None, workers: int | None = None, address: str | None = None,
-              progress: bool = True) -> tuple[list[dict[str, Any]], int]:
+              odometry: str = "visual", progress: bool = True) -> tuple[list[dict[str, Any]], int]:
     """Run every (world, seed, setting) drive not already ``ok`` in ``out/results.csv`` as a Ray task.
 
+    ``odometry`` is the drives' self-motion (``neuroslam drive --odometry``: visual, wheel or
+    visual-inertial); one results file holds one kind, so a folder with drives of another kind is refused.
     Returns (all rows, how many drives failed in this run). Ray starts locally with ``workers`` CPUs unless
     ``address`` names a running cluster.
     """
+    if odometry not in ODOMETRY:
+        raise InvalidParameterError("--odometry", odometry, f"must be one of {', '.join(ODOMETRY)}")
     try:
         import ray
     except ImportError:
@@ -192,6 +200,10 @@ def run_sweep(worlds: list[str], seeds: int, grid: list[tuple], out: Path, *, la
     results = out / "results.csv"
     grid_fields = sorted({field for setting in grid for field, _ in setting})
     rows = _read_results(results)
+    others = sorted({row["odometry"] for row in rows if row.get("odometry") and row["odometry"] != odometry})
+    if others:
+        raise InvalidParameterError("--odometry", odometry, f"{results} holds drives with {others[0]} odometry; "
+                                                            "use another --out")
     done = {(row["world"], row["seed"], json.dumps({f: _value(row[f]) for f in grid_fields if row.get(f, "") != ""},
                                                    sort_keys=True))
             for row in rows if row.get("status") == "ok"}
@@ -207,7 +219,7 @@ def run_sweep(worlds: list[str], seeds: int, grid: list[tuple], out: Path, *, la
         try:
             task = ray.remote(num_cpus=1)(_run_drive)
             futures = {task.remote(drive.world, drive.seed, drive.setting, laps, max_frames,
-                                   str(out / "drives" / drive.folder_name)): drive for drive in pending}
+                                   str(out / "drives" / drive.folder_name), odometry): drive for drive in pending}
             remaining = list(futures)
             with tqdm(total=len(futures), unit="drive", desc="sweep", disable=not progress) as bar:
                 while remaining:

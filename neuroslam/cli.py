@@ -228,10 +228,10 @@ def _drive(args: argparse.Namespace) -> int:
 
     import sim  # the simulator is only needed here; importing it selects headless rendering
 
-    from .evaluation import run_metrics
+    from .evaluation import observation_shares, run_metrics
     from .inertial import GravityPitch
     from .tum import write_tum, yaw_quaternion
-    from .vision.odometry import SelfMotion
+    from .vision.odometry import Observed, SelfMotion
     from .vision.preprocessing import grey
 
     slam, book = _slam_from(args)
@@ -247,7 +247,7 @@ def _drive(args: argparse.Namespace) -> int:
     out = args.out or Path("runs") / f"drive-{world.name.replace(':', '_')}-{time.strftime('%Y%m%d-%H%M%S')}"
     out.mkdir(parents=True, exist_ok=True)
     recorder = _recorder(args, out, f"{world.name}/{drive.route.name}")
-    times, truths, odometry, estimates, self_motion, active = [], [], [], [], [], []
+    times, truths, odometry, estimates, self_motion, active, observed = [], [], [], [], [], [], []
     closures, merges = [], []  # (frame, true pose and level where the re-entered / merged-at experience was made)
     slam_seconds = 0.0
     previous_time = None
@@ -260,10 +260,12 @@ def _drive(args: argparse.Namespace) -> int:
             if args.odometry == "visual-inertial":  # the camera for speed and turn; the IMU for the pitch
                 visual = slam.visual_odometry.step(grey(frame.image), dt)
                 pitch = gravity.step(frame.imu.accelerometer, dt)
-                motion = SelfMotion(visual.forward_speed, visual.yaw_rate, visual.forward_speed * math.sin(pitch))
+                seen = None if visual.observed is None else Observed(visual.observed.distance, visual.observed.yaw)
+                motion = SelfMotion(visual.forward_speed, visual.yaw_rate, visual.forward_speed * math.sin(pitch), seen)
             elif args.odometry == "wheel":  # encoders for speed and turn; the camera for the height rate
-                climb = slam.visual_odometry.step(grey(frame.image), dt).climb_rate
-                motion = SelfMotion(frame.odometry.forward_speed, frame.odometry.yaw_rate, climb)
+                visual = slam.visual_odometry.step(grey(frame.image), dt)
+                seen = None if visual.observed is None else Observed(height=visual.observed.height)
+                motion = SelfMotion(frame.odometry.forward_speed, frame.odometry.yaw_rate, visual.climb_rate, seen)
             estimate = slam.step(frame.image, frame.time, odometry=motion)
             slam_seconds += time.perf_counter() - slam_started
             previous_time = frame.time
@@ -273,6 +275,7 @@ def _drive(args: argparse.Namespace) -> int:
             odometry.append(frame.odometry)
             estimates.append(estimate.pose)
             active.append((estimate.template_id, estimate.experience_id))
+            observed.append(estimate.self_motion.observed)
             _note_events(estimate, len(times) - 1, book, closures, merges)
             self_motion.append(slam.odometry_pose)
             if recorder is not None:
@@ -308,6 +311,7 @@ def _drive(args: argparse.Namespace) -> int:
         "experiences": experience_map.size,
         "map_components": len(np.unique(experience_map.components)),
         **scores,
+        **observation_shares(observed),
         "ms_per_frame": {
             "slam": 1000 * slam_seconds / frames,
             "physics": 1000 * drive.timings["physics"] / frames,
@@ -512,7 +516,7 @@ def _run(args: argparse.Namespace) -> int:
         read_description,
         read_groundtruth,
     )
-    from .evaluation import nearest_level, run_metrics
+    from .evaluation import nearest_level, observation_shares, run_metrics
 
     frames = list_frames(args.frames)
     description = read_description(args.frames)
@@ -537,7 +541,7 @@ def _run(args: argparse.Namespace) -> int:
     truth = None if groundtruth is None else groundtruth.poses
     # each frame's floor: the level nearest the true height, as the simulator gives it (sim.World.level_of)
     true_levels = None if truth is None or levels is None else nearest_level(truth[:, 2], levels)
-    estimates, self_motion, closures, merges, active = [], [], [], [], []
+    estimates, self_motion, closures, merges, active, observed = [], [], [], [], [], []
     started = time.perf_counter()
     slam_seconds = 0.0
     for index, path in enumerate(tqdm(frames, unit="frame", desc=Path(args.frames).name)):
@@ -551,6 +555,7 @@ def _run(args: argparse.Namespace) -> int:
             recorder.log_frame(float(times[index]), image, slam, estimate, None if truth is None else truth[index])
         estimates.append(estimate.pose)
         active.append((estimate.template_id, estimate.experience_id))
+        observed.append(estimate.self_motion.observed)
         self_motion.append(slam.odometry_pose)
         _note_events(estimate, index, book, closures, merges)
     if recorder is not None:
@@ -575,6 +580,7 @@ def _run(args: argparse.Namespace) -> int:
             truth=groundtruth.poses, true_levels=true_levels, levels=None if levels is None else np.array(levels),
             estimate=estimates, odometry=self_motion, online_estimate=online,
             **_event_arguments(slam, book, closures, merges if args.load_map else None)))
+    metrics.update(observation_shares(observed))
     # recorded frames: no physics and no rendering; "read" is decoding the image files
     metrics["ms_per_frame"] = {"slam": 1000 * slam_seconds / len(frames), "physics": None, "render": None,
                                "read": 1000 * (elapsed - slam_seconds) / len(frames),

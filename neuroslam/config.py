@@ -165,6 +165,23 @@ class VisualOdometryConfig:
             beside the path reach into the far floor rows and bias the yaw); 0 turns it off. At 0.5 (the
             default) the building's straight corridors read -1.6 to +2.2 degrees of turn instead of -11 to
             +7 (see the README's accuracy section).
+        floor_min_information: for ``ground``, the floor's information on the distance (eq. G3's Σ w J_d²) below
+            which the floor does not see the distance, as a multiple of the prior's weight: at 1 the measurement
+            outweighs the constant-velocity assumption. (Below it the floor's distance was mostly the previous
+            frame's: far, thin lines and the feet of walls standing beside the path reach 0.3–1 and pull the
+            distance towards rest frame after frame.)
+        min_image_information: with ``ground`` and ``transitions``, the whole image's information on the yaw
+            (eq. R2 of :mod:`neuroslam.vision.pitch`, Σ w J², intensity² per rad²) per pixel of the height
+            region below which the image does not see the yaw (nor the pitch), and the odometry says it is
+            blind. 0.2 is five times what sensor noise of 5 grey levels alone gives a uniform image (0.04: noise
+            must never count as seeing), and a twentieth of what any texture across the image gives (1–4).
+        image_expansions: the expansions of eq. R1's forward flow (:mod:`neuroslam.vision.pitch`): 1, one for the
+            whole image, or 4, one per quadrant. Forward motion moves near things faster: with a wall close on
+            one side and far on the other, one expansion leaves the difference to the yaw (measured on a blank
+            floor in an 18 × 12 m hall, 2 m from one wall: 8.7° over 8 m straight with 1, 1.8° with 4).
+        blind_hold: seconds a speed or turn rate is held where nothing observes it, before it is taken as 0.
+        scale_memory: seconds over which the metric scale of the upper image's expansion (walls, ceiling) is
+            learnt from the floor's distance, to be carried where the floor shows none (a time constant).
     """
 
     rotation_region: Region = Region(0.0, 1.0, 0.0, 1.0)
@@ -190,6 +207,11 @@ class VisualOdometryConfig:
     max_slope: float = math.radians(15.0)
     level_snap: float = math.radians(4.0)
     near_floor_row: float = 0.5
+    floor_min_information: float = 1.0
+    min_image_information: float = 0.2
+    image_expansions: int = 4
+    blind_hold: float = 2.0
+    scale_memory: float = 10.0
 
     def __post_init__(self) -> None:
         self.validate()
@@ -225,6 +247,11 @@ class VisualOdometryConfig:
         _require(f"{path}.level_snap", self.level_snap,
                  _number(self.level_snap) and 0 <= self.level_snap < self.max_slope,
                  "must be an angle from 0 to max_slope, rad")
+        _non_negative(path, min_image_information=self.min_image_information, blind_hold=self.blind_hold,
+                      floor_min_information=self.floor_min_information)
+        _require(f"{path}.image_expansions", self.image_expansions, self.image_expansions in (1, 4),
+                 "must be 1 (one expansion for the whole image) or 4 (one per quadrant)")
+        _positive(path, scale_memory=self.scale_memory)
 
 
 @dataclass(frozen=True)

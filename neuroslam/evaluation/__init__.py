@@ -8,10 +8,11 @@ from .metrics import (
     false_loop_closures,
     level_accuracy,
     nearest_level,
+    observation_shares,
     rpe_rmse,
     run_metrics,
 )
 from .trajectory import ate_rmse, umeyama
 
 __all__ = ["FLOOR_TOLERANCE", "align", "ate_rmse", "false_loop_closure_mask", "false_loop_closures",
-           "level_accuracy", "nearest_level", "rpe_rmse", "run_metrics", "umeyama"]
+           "level_accuracy", "nearest_level", "observation_shares", "rpe_rmse", "run_metrics", "umeyama"]

@@ -8,6 +8,7 @@ Poses are (x, y, z, yaw) in metres and radians.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -19,7 +20,7 @@ from .trajectory import umeyama
 FLOOR_TOLERANCE = 0.1
 
 __all__ = ["FLOOR_TOLERANCE", "align", "false_loop_closure_mask", "false_loop_closures", "level_accuracy",
-           "nearest_level", "rpe_rmse", "run_metrics"]
+           "nearest_level", "observation_shares", "rpe_rmse", "run_metrics"]
 
 
 def align(estimate: np.ndarray, truth: np.ndarray, *, with_scale: bool = True) -> np.ndarray:
@@ -183,6 +184,31 @@ def run_metrics(
         result["false_merges"] = (None if not np.all(np.isfinite(merge_then)) else false_loop_closures(
             positions[merge_frames], merge_then, true_levels[merge_frames], merge_then_levels, floors=floors))
     return result
+
+
+def observation_shares(observed: Sequence) -> dict:
+    """What the camera observed over a run: ``metrics.json``'s ``blind_share`` and ``self_motion_sources``.
+
+    Args:
+        observed: per frame, the :class:`~neuroslam.vision.odometry.Observed` of its self-motion, or None
+            where the source does not say (the first frame; the paper's profile odometry).
+
+    Returns:
+        ``{"blind_share": {"distance", "yaw", "height"}, "self_motion_sources": {dof: {source: share}}}``:
+        per degree of freedom, the share of the frames that report it in which nothing observed it (held or
+        none), and the share of each source; None for both where no frame reports.
+    """
+    reports = [item for item in observed if item is not None]
+    if not reports:
+        return {"blind_share": None, "self_motion_sources": None}
+    names = ("distance", "yaw", "height")
+    blind = np.array([item.blind for item in reports], dtype=float).mean(axis=0)
+    sources = {}
+    for name in names:
+        values, counts = np.unique([getattr(item, name) for item in reports], return_counts=True)
+        sources[name] = {str(value): float(count / len(reports)) for value, count in zip(values, counts, strict=True)}
+    return {"blind_share": {name: float(share) for name, share in zip(names, blind, strict=True)},
+            "self_motion_sources": sources}
 
 
 def _rmse(a: np.ndarray, b: np.ndarray) -> float:

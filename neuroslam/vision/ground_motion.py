@@ -121,7 +121,10 @@ class GroundMotion:
     def __init__(self, *, horizontal_fov: float, camera_height: float, camera_forward: float,
                  first_row: float = 0.3, smoothing: float = 1.0, robust_scale: float = 0.05, iterations: int = 10,
                  min_information: float = 0.3, near_row: float = 0.0, near_information: float = 3.0,
-                 near_tolerance: float = 0.03, levels: int = 2):
+                 near_tolerance: float = 0.03, levels: int = 2, surface: str = "floor"):
+        if surface not in ("floor", "ceiling"):
+            raise ValueError(f"surface={surface!r}: must be 'floor' or 'ceiling'")
+        self.surface = surface
         self.horizontal_fov = horizontal_fov
         self.camera_height = camera_height
         self.camera_forward = camera_forward
@@ -136,8 +139,40 @@ class GroundMotion:
         self.levels = levels
         self.motion = np.zeros(2)  # (d, w) of the last frame: m, rad
         self.support = 0.0  # share of floor pixels that stayed in view and were used, last frame
+        # the floor's information on (d, w) at the last frame's solution (Σ w J², data term only), as
+        # multiples of the prior's weights (robust_scale / s_d)², (robust_scale / s_w)²
+        self.information = np.zeros(2)
         self._previous: list[np.ndarray] | None = None
         self._geometry: dict[tuple[int, int], tuple] = {}
+
+    @property
+    def _height(self) -> float:
+        """The plane's height relative to the camera in eq. G1, m: the floor below (positive), the ceiling
+        above (negative)."""
+        return self.camera_height if self.surface == "floor" else -self.camera_height
+
+    def align(self, previous: list[np.ndarray], current: list[np.ndarray], prior: np.ndarray) -> tuple[float, float]:
+        """Eq. G3 (and G4) between two pyramids of :meth:`pyramid`, from ``prior`` (d0, w0): (d, w), m and rad.
+        Sets :attr:`information` and :attr:`support` as :meth:`step` does, and :attr:`motion`."""
+        distance, turn = self._solve(previous, current, np.asarray(prior, dtype=float).copy())
+        self.motion = np.array([distance, turn])
+        return float(distance), float(turn)
+
+    @property
+    def pyramid(self) -> list[np.ndarray] | None:
+        """The last image's pyramid, coarsest first (each level blurred, with its gradients), or None."""
+        return self._previous
+
+    @property
+    def distance_weight(self) -> float:
+        """The prior's weight on the distance, (robust_scale / s_d)², intensity² per m²: the unit of
+        :attr:`information`'s first entry."""
+        return (self.robust_scale / _PRIOR_DISTANCE) ** 2
+
+    @property
+    def sees_distance(self) -> bool:
+        """The last frame's floor observed the distance (its information at least ``min_information``)."""
+        return bool(self.information[0] >= self.min_information)
 
     @property
     def finest(self) -> np.ndarray | None:
@@ -185,11 +220,15 @@ class GroundMotion:
         rows, columns = shape
         focal = (columns / 2) / math.tan(self.horizontal_fov / 2)
         centre_u, centre_v = columns / 2 - 0.5, rows / 2 - 0.5
-        first = int(math.ceil(centre_v + self.first_row * rows / 2))
         step = 2 if columns > 100 else 1  # every other column at full resolution: half the cost, as accurate
-        v, u = np.mgrid[first: rows - 1, 1: columns - 1: step]
+        if self.surface == "floor":
+            first = int(math.ceil(centre_v + self.first_row * rows / 2))
+            v, u = np.mgrid[first: rows - 1, 1: columns - 1: step]
+        else:  # the ceiling: the same rows mirrored above the centre
+            last = int(math.floor(centre_v - self.first_row * rows / 2))
+            v, u = np.mgrid[1: last + 1, 1: columns - 1: step]
         u, v = u.ravel(), v.ravel()
-        depth = self.camera_height * focal / (v - centre_v)  # eq. G1 solved for x - a
+        depth = self._height * focal / (v - centre_v)  # eq. G1 solved for x - a
         ground = np.stack([depth + self.camera_forward, -(u - centre_u) * depth / focal]).astype(np.float32)
         indices = v * columns + u
         if near_only:  # the near floor of eq. G4
@@ -240,7 +279,7 @@ class GroundMotion:
         rows, columns = old.shape[1:]
         target = new[0].ravel()[indices]
         qx, qy = ground
-        h, a = self.camera_height, self.camera_forward
+        h, a = self._height, self.camera_forward
         prior_distance, prior_turn = float(prior[0]), float(prior[1])
         weight_distance = (self.robust_scale / _PRIOR_DISTANCE) ** 2
         weight_turn = (self.robust_scale / _PRIOR_TURN) ** 2
@@ -276,6 +315,7 @@ class GroundMotion:
             jacobian_distance = d_px * ch + d_py * sh
             wd, wt = weight * jacobian_distance, weight * jacobian_turn
             a11, a12, a22 = float(wd @ jacobian_distance), float(wd @ jacobian_turn), float(wt @ jacobian_turn)
+            self.information = np.array([a11 / weight_distance, a22 / weight_turn])
             data_distance = float(wd @ residual)
             if a11 < self.min_information * weight_distance:  # the floor does not see the distance: the prior's
                 a11 = a12 = data_distance = 0.0

@@ -40,7 +40,38 @@ from .ground_motion import GroundMotion, blurred_with_gradients
 from .pitch import LevelTransitions, RotationAlignment
 from .preprocessing import crop, resize
 
-__all__ = ["SelfMotion", "VisualOdometry", "best_shift", "vertical_shift"]
+__all__ = ["BLIND", "Observed", "SelfMotion", "VisualOdometry", "best_shift", "vertical_shift"]
+
+BLIND = ("held", "none")  # the sources of a degree of freedom that nothing observed
+_NOMINAL_CEILING = 2.0  # m above the camera: where the ceiling's first alignment starts (a 2.5 m room)
+
+
+@dataclass(frozen=True)
+class Observed:
+    """Where one frame's self-motion came from, per degree of freedom: what the camera saw of it.
+
+    Each of ``distance``, ``yaw`` and ``height`` is one of
+
+    - ``floor``: the floor's motion under the ground-plane model (eqs. G1–G4), where the floor has marks;
+    - ``ceiling`` (distance): the ceiling's motion under the same plane model, in the ceiling height the
+      floor last gave it (eq. S1 of :meth:`VisualOdometry._observed_motion`);
+    - ``image``: the whole image: its rotation for the yaw and pitch (eqs. R1–R2: walls, ceiling, anything
+      far or near); for the distance, the expansion of the image above its centre in the scale the floor
+      last gave it (eq. S1);
+    - ``held``: nothing observed it; the last observed rate, held for at most ``odometry.blind_hold`` seconds
+      (a ramp's foot or top, where the floor is not one plane, holds the speed too);
+    - ``none``: nothing observed it and nothing is held: zero;
+    - ``external``: given by another sensor (wheels, an IMU).
+    """
+
+    distance: str = "external"
+    yaw: str = "external"
+    height: str = "external"
+
+    @property
+    def blind(self) -> tuple[bool, bool, bool]:
+        """(distance, yaw, height): True where nothing observed that degree of freedom this frame."""
+        return self.distance in BLIND, self.yaw in BLIND, self.height in BLIND
 
 
 @dataclass(frozen=True)
@@ -50,11 +81,14 @@ class SelfMotion:
     Attributes:
         forward_speed: m/s along the heading. yaw_rate: rad/s, counter-clockwise positive.
         climb_rate: m/s, positive up.
+        observed: what the camera observed of each (:class:`Observed`); None where the source does not
+            say (the paper's profile odometry).
     """
 
     forward_speed: float
     yaw_rate: float
     climb_rate: float = 0.0
+    observed: Observed | None = None
 
     def validate(self) -> None:
         """Raise :class:`~neuroslam.errors.InvalidInputError` (a ValueError) naming the first field that is not
@@ -145,9 +179,24 @@ class VisualOdometry:
                 raise InvalidParameterError("odometry.planar_motion", config.planar_motion,
                                             "needs a pinhole camera; use 'profile' for a panorama")
             self._ground = GroundMotion(horizontal_fov=horizontal_fov, camera_height=config.camera_height,
-                                        camera_forward=config.camera_forward, near_row=config.near_floor_row)
+                                        camera_forward=config.camera_forward, near_row=config.near_floor_row,
+                                        min_information=config.floor_min_information)
         self._alignment = self.transitions = None
         self._speed = 0.0  # m/s, the last speed measured off a transition (held across one)
+        # where nothing observes a degree of freedom: the last observed rates (m/s, rad/s) and the seconds since
+        self._held = np.zeros(2)
+        self._blind_for = np.full(2, math.inf)
+        # the metric scale of the upper image's expansion (m per unit), learnt where the floor sees the
+        # distance: running sums of d e and e² (eq. S1 of the module docstring)
+        self._scale_sums = np.zeros(2)
+        # the ceiling's height above the camera (m), learnt the same way from its distance in units of that
+        # height (eq. S1 with the ceiling's d / H instead of e)
+        self._ceiling_sums = np.zeros(2)
+        self._ceiling = None
+        if self._ground is not None and config.height_model == "transitions":
+            self._ceiling = GroundMotion(horizontal_fov=horizontal_fov, camera_height=1.0,
+                                         camera_forward=config.camera_forward, surface="ceiling",
+                                         min_information=config.floor_min_information)
         self._finest: np.ndarray | None = None  # the last image blurred, with gradients (eqs. R1–R2)
         if config.height_model == "transitions":
             if panoramic:
@@ -155,7 +204,8 @@ class VisualOdometry:
                                             "needs a pinhole camera; use 'profile' for a panorama")
             region = config.height_region
             self._alignment = RotationAlignment(horizontal_fov=horizontal_fov,
-                                                region=(region.top, region.bottom, region.left, region.right))
+                                                region=(region.top, region.bottom, region.left, region.right),
+                                                expansions=config.image_expansions)
             self.transitions = LevelTransitions(transition_rate=config.transition_rate,
                                                  transition_min=config.transition_min, max_slope=config.max_slope,
                                                  level_snap=config.level_snap)
@@ -173,7 +223,10 @@ class VisualOdometry:
             state.update({"transitions.pitch": np.float64(self.transitions.pitch),
                           "transitions.run": np.float64(self.transitions.run),
                           "transitions.speed": np.float64(self._speed),
-                          "transitions.yaw": np.float64(self._alignment.yaw)})
+                          "transitions.yaw": np.float64(self._alignment.yaw),
+                          "observed.held": self._held.copy(), "observed.blind_for": self._blind_for.copy(),
+                          "observed.scale_sums": self._scale_sums.copy(),
+                          "observed.ceiling_sums": self._ceiling_sums.copy()})
         return state
 
     def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
@@ -195,6 +248,11 @@ class VisualOdometry:
             self.transitions.run = float(state.get("transitions.run", 0.0))
             self._speed = float(state.get("transitions.speed", 0.0))
             self._alignment.yaw = float(state.get("transitions.yaw", 0.0))
+            # a map saved before the odometry reported what it observed starts blind, with no scale
+            self._held = np.asarray(state.get("observed.held", np.zeros(2)), dtype=float).copy()
+            self._blind_for = np.asarray(state.get("observed.blind_for", np.full(2, math.inf)), dtype=float).copy()
+            self._scale_sums = np.asarray(state.get("observed.scale_sums", np.zeros(2)), dtype=float).copy()
+            self._ceiling_sums = np.asarray(state.get("observed.ceiling_sums", np.zeros(2)), dtype=float).copy()
             if self._ground is not None:
                 self._finest = self._ground.finest
             else:
@@ -244,6 +302,7 @@ class VisualOdometry:
         """Self-motion since the previous image (zero for the first), for images ``dt`` seconds apart."""
         profiles = self._profiles(grey_image)
         previous, self._previous = self._previous, profiles
+        self._ceiling_previous = None if self._ground is None else self._ground.pyramid
         ground = None if self._ground is None else self._ground.step(grey_image)
         finest_before = self._finest
         if self._alignment is not None:
@@ -304,15 +363,103 @@ class VisualOdometry:
     def _height_from_transitions(self, finest_before: np.ndarray | None, distance: float, yaw_change: float,
                                  dt: float) -> SelfMotion:
         """The frame's motion with ``height_model = "transitions"``: the pitch by eqs. R1–R3; on a transition
-        frame the aligned yaw and the last speed measured off one replace the planar estimates."""
+        frame the aligned yaw and the last speed measured off one replace the planar estimates; elsewhere,
+        with ``planar_motion = "ground"``, each degree of freedom from the cue that observes it
+        (:meth:`_observed_motion`)."""
         config = self.config
+        observed = None
         if finest_before is not None:
             aligned_yaw, pitch_change = self._alignment.step(finest_before, self._finest, yaw_change)
+            pixels = max(self._alignment.pixels, 1)
+            image_sees_yaw = self._alignment.information[0] / pixels >= config.min_image_information
+            pitch_seen = self._alignment.information[1] / pixels >= config.min_image_information
+            if self._ground is not None and not pitch_seen:
+                pitch_change = 0.0  # a transition starts only where the image sees the pitch
             if self.transitions.step(pitch_change, dt):
                 distance = self._speed * dt
                 yaw_change = float(np.clip(aligned_yaw, -config.max_yaw_rate * dt, config.max_yaw_rate * dt))
+                if self._ground is not None:
+                    observed = Observed("held", "image", "image")
             else:
+                if self._ground is not None:
+                    distance, yaw_change, observed = self._observed_motion(distance, yaw_change, aligned_yaw,
+                                                                           image_sees_yaw, pitch_seen, dt)
                 self._speed = distance / dt
         self.pitch = self.transitions.current
         climb = float(np.clip(distance * math.sin(self.pitch), -config.max_climb_rate * dt, config.max_climb_rate * dt))
-        return SelfMotion(distance / dt, yaw_change / dt, climb / dt)
+        return SelfMotion(distance / dt, yaw_change / dt, climb / dt, observed)
+
+    def _observed_motion(self, floor_distance: float, floor_yaw: float, aligned_yaw: float, image_sees_yaw: bool,
+                         pitch_seen: bool, dt: float) -> tuple[float, float, Observed]:
+        """Distance and yaw change of a frame off a transition, each from the cue that observes it.
+
+        - Yaw: the floor's (eqs. G3–G4) where the floor has marks (it sees the distance: a floor showing only
+          lines along the path, or only its edges against the walls, sees the yaw through them, and walls
+          standing close take part in it with a bias, see :mod:`.ground_motion`); else the whole image's
+          (eq. R2: walls, ceiling) where it sees the yaw; else held.
+        - Distance, in this order: the floor's where it sees it; the ceiling's (eqs. G1–G3 on the image above
+          the horizon, a plane H above the camera: it gives d / H) times the ceiling height the floor last
+          gave it; the expansion e of the upper image (walls, ceiling, eq. R1) times the scale the floor last
+          gave it, where the image sees the motion; else held.
+
+        The scale of each, H or s (metres of travel per unit: the ceiling's height above the camera, or about
+        the mean depth of what is seen above the horizon), is the least-squares ratio of the floor's distances
+        d to that cue's reading c over the frames where both see it, each weighted by exp(-age / scale_memory):
+
+            s = sum_k lambda_k d_k c_k / sum_k lambda_k c_k^2                                        (S1)
+
+        A ceiling's height is the same along a level, and usually from level to level: it carries the scale
+        over a blank floor; the upper image's depth changes with where the robot is, so the expansion is the
+        last resort before holding. Where nothing observes a degree of freedom, its last observed rate is held
+        for ``blind_hold`` seconds, then it is 0; the frame is marked blind in it (:class:`Observed`). The
+        floor's prior for the next frame (eq. G3's (d0, w0)) becomes what was taken, so a blank floor does not
+        carry a stale motion on.
+        """
+        config, ground, alignment = self.config, self._ground, self._alignment
+        limit_distance, limit_yaw = config.max_speed * dt, config.max_yaw_rate * dt
+        floor_sees = ground.sees_distance
+        if floor_sees:
+            yaw, yaw_source = floor_yaw, "floor"
+        elif image_sees_yaw:
+            yaw, yaw_source = float(np.clip(aligned_yaw, -limit_yaw, limit_yaw)), "image"
+        else:
+            yaw, yaw_source = None, ""
+        expansion, expansion_information = alignment.upper
+        ceiling, memory = self._ceiling, math.exp(-dt / config.scale_memory)
+        height = self._ceiling_sums[0] / self._ceiling_sums[1] if self._ceiling_sums[1] > 0 else 0.0
+        if floor_sees:
+            distance, distance_source = floor_distance, "floor"
+            if image_sees_yaw and expansion > 0 and floor_distance > 0 and expansion_information > 0:
+                self._scale_sums = memory * self._scale_sums + (floor_distance * expansion, expansion**2)
+            if floor_distance > 0:  # the ceiling's height, where the ceiling sees the motion too
+                reading, _ = ceiling.align(self._ceiling_previous, ground.pyramid,
+                                           (floor_distance / (height or _NOMINAL_CEILING), floor_yaw))
+                if ceiling.sees_distance and reading > 0:
+                    self._ceiling_sums = memory * self._ceiling_sums + (floor_distance * reading, reading**2)
+        else:
+            distance, distance_source = None, ""
+            previous_distance = self._held[0] * dt
+            if height > 0:
+                reading, _ = ceiling.align(self._ceiling_previous, ground.pyramid,
+                                           (previous_distance / height, float(ground.motion[1])))
+                if ceiling.information[0] / height**2 >= ceiling.min_information and reading >= 0:
+                    distance, distance_source = float(np.clip(height * reading, 0.0, limit_distance)), "ceiling"
+            scale = self._scale_sums[0] / self._scale_sums[1] if self._scale_sums[1] > 0 else 0.0
+            if (distance is None and image_sees_yaw and scale > 0
+                    and expansion_information / scale**2 >= ground.min_information * ground.distance_weight):
+                distance, distance_source = float(np.clip(scale * expansion, 0.0, limit_distance)), "image"
+        rates = []
+        for k, (value, source) in enumerate(((distance, distance_source), (yaw, yaw_source))):
+            if value is not None:
+                self._held[k], self._blind_for[k] = value / dt, 0.0
+                rates.append((value, source))
+                continue
+            self._blind_for[k] += dt
+            if self._blind_for[k] <= config.blind_hold:
+                rates.append((self._held[k] * dt, "held"))
+            else:
+                rates.append((0.0, "none"))
+        (distance, distance_source), (yaw, yaw_source) = rates
+        if distance_source != "floor" or yaw_source != "floor":
+            ground.motion = np.array([distance, yaw])
+        return distance, yaw, Observed(distance_source, yaw_source, "image" if pitch_seen else "held")

@@ -69,12 +69,22 @@ class RotationAlignment:
     """
 
     def __init__(self, *, horizontal_fov: float, region: tuple[float, float, float, float] = (0.2, 0.8, 0.1, 0.9),
-                 robust_scale: float = 0.05, iterations: int = 8):
+                 robust_scale: float = 0.05, iterations: int = 8, expansions: int = 1):
+        if expansions not in (1, 4):
+            raise ValueError(f"expansions={expansions!r}: must be 1 or 4")
+        self.expansions = expansions
         self.horizontal_fov = horizontal_fov
         self.region = region
         self.robust_scale = robust_scale
         self.iterations = iterations
         self.yaw = 0.0  # rad, the last frame's aligned yaw change (the next frame's first start)
+        self.expansion = 0.0  # the last frame's expansion e of eq. R1 (forward motion over depth)
+        # the last frame's information on (yaw, pitch, expansion): each the inverse of its entry of the inverse
+        # normal matrix of eq. R2 (the other two free), intensity² per rad² (per unit for e)
+        self.information = np.zeros(3)
+        # the expansion of the image above its centre alone (walls, ceiling: what does not change when the floor
+        # does), and its information Σ w J_e² over those pixels; see :meth:`upper_expansion`
+        self.upper = (0.0, 0.0)
         self._pixels: dict[tuple[int, int], tuple] = {}
 
     def _grid(self, shape: tuple[int, int]) -> tuple:
@@ -91,9 +101,16 @@ class RotationAlignment:
         focal = (columns / 2) / math.tan(self.horizontal_fov / 2)
         x = (u - (columns / 2 - 0.5)).astype(np.float64)
         y = (v - (rows / 2 - 0.5)).astype(np.float64)
-        cached = (focal, v * columns + u, x, y)
+        cached = (focal, v * columns + u, x, y, self._labels(x, y))
         self._pixels[shape] = cached
         return cached
+
+    def _labels(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """(expansions, N) 0/1: which expansion each pixel's forward flow takes (one, or one per quadrant)."""
+        if self.expansions == 1:
+            return np.ones((1, len(x)))
+        return np.stack([(y < 0) & (x < 0), (y < 0) & (x >= 0), (y >= 0) & (x < 0), (y >= 0) & (x >= 0)]
+                        ).astype(np.float64)
 
     def step(self, previous: np.ndarray, current: np.ndarray, floor_yaw: float) -> tuple[float, float]:
         """(yaw change, pitch change), rad, from the previous to the current image.
@@ -110,39 +127,83 @@ class RotationAlignment:
             solution = self._solve(previous, current, start)
             if best is None or solution[1] < best[1]:
                 best = solution
-        (yaw, pitch, _), cost = best
+        parameters, cost, information = best
         if not math.isfinite(cost):
-            yaw, pitch = floor_yaw, 0.0
-        self.yaw = yaw
+            parameters, information = np.zeros_like(parameters), np.zeros_like(information)
+            parameters[0] = floor_yaw
+        yaw, pitch = float(parameters[0]), float(parameters[1])
+        self.yaw, self.expansion, self.information = yaw, parameters[2:].copy(), information
+        self.upper = (0.0, 0.0)
+        if math.isfinite(cost):
+            if self.expansions == 4:  # the upper quadrants' expansions, weighted by their information
+                weights = information[2:4]
+                if weights.sum() > 0:
+                    self.upper = (float(weights @ parameters[2:4] / weights.sum()), float(weights.sum()))
+            else:
+                self.upper = self._upper_expansion(previous, current, parameters)
         return yaw, pitch
 
-    def _solve(self, previous: np.ndarray, current: np.ndarray, yaw: float) -> tuple[np.ndarray, float]:
-        """Gauss–Newton on eq. R2 from (yaw, 0, 0); returns the parameters and the mean Huber cost."""
-        focal, indices, x, y = self._grid(current.shape[1:])
+    @property
+    def pixels(self) -> int:
+        """Pixels of the aligned region at the last image size (the information above is summed over them)."""
+        return len(next(iter(self._pixels.values()))[1]) if self._pixels else 0
+
+    def _upper_expansion(self, previous: np.ndarray, current: np.ndarray, parameters: np.ndarray
+                         ) -> tuple[float, float]:
+        """Eq. R2 over the region's pixels above the image centre alone, for the expansion only (yaw and pitch
+        held at the whole region's solution), by two Gauss–Newton steps from the whole region's expansion:
+        (expansion, information Σ w J_e²). The whole region's expansion mixes the floor's flow with the
+        walls'; the floor's changes with its texture (a blank floor shows only its edges), the upper image's
+        does not."""
+        focal, indices, x, y, labels = self._grid(current.shape[1:])
+        upper = y < 0
+        indices, x, y, labels = indices[upper], x[upper], y[upper], labels[:, upper]
         target = current[0].ravel()[indices]
-        parameters = np.array([yaw, 0.0, 0.0])  # psi, theta, e
+        parameters = parameters.copy()
+        information = 0.0
+        for _ in range(2):
+            residual, visible, jacobian = self._linearise(previous, target, parameters, focal, x, y, labels)
+            weight = self.robust_scale / np.maximum(np.abs(residual), self.robust_scale) * visible
+            slope = jacobian[2]
+            information = float((weight * slope) @ slope)
+            if information <= _DAMPING:
+                return 0.0, 0.0
+            parameters[2] -= float((weight * slope) @ residual) / information
+        return float(parameters[2]), information
+
+    def _solve(self, previous: np.ndarray, current: np.ndarray, yaw: float) -> tuple[np.ndarray, float, np.ndarray]:
+        """Gauss–Newton on eq. R2 from (yaw, 0, 0); returns the parameters, the mean Huber cost and the
+        marginal information on each parameter (at the last linearisation)."""
+        focal, indices, x, y, labels = self._grid(current.shape[1:])
+        target = current[0].ravel()[indices]
+        parameters = np.zeros(2 + self.expansions)  # psi, theta, e (one, or one per quadrant)
+        parameters[0] = yaw
         for _ in range(self.iterations):
-            residual, visible, jacobian = self._linearise(previous, target, parameters, focal, x, y)
+            residual, visible, jacobian = self._linearise(previous, target, parameters, focal, x, y, labels)
             size = np.abs(residual)
             weight = self.robust_scale / np.maximum(size, self.robust_scale) * visible
             weighted = jacobian * weight
-            normal = weighted @ jacobian.T + _DAMPING * np.eye(3)
+            normal = weighted @ jacobian.T + _DAMPING * np.eye(len(parameters))
             update = -np.linalg.solve(normal, weighted @ residual)
+            information = 1.0 / np.maximum(np.diag(np.linalg.inv(normal)), 1e-12)
             parameters += update
             if np.abs(update[:2]).max() < _TOLERANCE:  # the expansion is a nuisance parameter
                 break
-        residual, visible, _ = self._linearise(previous, target, parameters, focal, x, y, jacobian=False)
+        residual, visible, _ = self._linearise(previous, target, parameters, focal, x, y, labels, jacobian=False)
         if visible.mean() < _MIN_SUPPORT:
-            return parameters, math.inf
+            return parameters, math.inf, information
         size = np.abs(residual[visible])
         scale = self.robust_scale
-        return parameters, float(np.mean(np.where(size < scale, 0.5 * size**2, scale * (size - 0.5 * scale))))
+        cost = float(np.mean(np.where(size < scale, 0.5 * size**2, scale * (size - 0.5 * scale))))
+        return parameters, cost, information
 
     @staticmethod
     def _linearise(previous: np.ndarray, target: np.ndarray, parameters: np.ndarray, focal: float, x: np.ndarray,
-                   y: np.ndarray, *, jacobian: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        """Residuals of eq. R2, which pixels land inside the previous image, and the Jacobian (3, N)."""
-        yaw, pitch, expansion = parameters
+                   y: np.ndarray, labels: np.ndarray, *, jacobian: bool = True
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Residuals of eq. R2, which pixels land inside the previous image, and the Jacobian (2 + E, N)."""
+        yaw, pitch = parameters[:2]
+        expansion = parameters[2] if len(labels) == 1 else parameters[2:] @ labels
         cy, sy, cp, sp = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
         # r' = R_yaw R_pitch (x, y, f): pitch about the camera's x axis (nose up sends the forward ray to -y),
         # then yaw about its vertical axis (a left turn sends the forward ray to -x)
@@ -168,7 +229,8 @@ class RotationAlignment:
             du = scale * (d_rx - rx * inverse * d_rz) * inverse
             dv = scale * (d_py - py * inverse * d_rz) * inverse
             rows_out.append(gradient_u * du + gradient_v * dv)
-        rows_out.append(-(gradient_u * rx + gradient_v * py) * focal * inverse)  # d/de
+        d_expansion = -(gradient_u * rx + gradient_v * py) * focal * inverse
+        rows_out.extend(d_expansion * labels)  # d/de of each expansion, on its pixels
         return residual, visible, np.stack(rows_out)
 
 

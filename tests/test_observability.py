@@ -1,0 +1,93 @@
+"""The visual odometry takes each degree of freedom from the cue that observes it, and says when it is blind.
+
+Synthetic scenes with exact ground truth (:mod:`scenes`: a numpy ray caster, the testbed's camera): the
+floor where it has marks, the whole image (walls, ceiling) for the yaw where the floor is blank, the upper
+image's expansion in the floor's last metric scale for the distance, and nothing claimed where nothing is
+seen. Tolerances are the issue's: turns within 10 %, distance within 10 % over 20 m on sparse tiles.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from scenes import Scene, Texture, arc_path
+
+from neuroslam import NeuroSLAM
+from neuroslam.vision.odometry import VisualOdometry
+
+HALL = {"half_width": 6.0, "half_length": 9.0}  # an 18 × 12 m hall, 3 m high
+# 8 m straight, a 90-degree left turn over 3 m, 4 m straight, at 1 m/s and 10 frames a second
+TURN = arc_path([(8.0, 0.0), (3.0, math.pi / 2), (4.0, 0.0)], start=(-6.0, -4.0, 0.0))
+
+
+def drive(scene: Scene, path: np.ndarray) -> tuple[np.ndarray, list]:
+    """Per frame (distance m, yaw change rad) read by the default odometry, and what it observed."""
+    odometry = VisualOdometry()
+    motions, observed = [], []
+    for k, (x, y, yaw) in enumerate(path):
+        motion = odometry.step(scene.render(x, y, yaw), 0.1 if k else 0.0)
+        motions.append((motion.forward_speed * 0.1, motion.yaw_rate * 0.1))
+        observed.append(motion.observed)
+    return np.array(motions), observed
+
+
+def truth(path: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per frame (from the second) the true distance and yaw change."""
+    steps = np.diff(path, axis=0)
+    return np.hypot(steps[:, 0], steps[:, 1]), steps[:, 2]
+
+
+def test_a_textured_scene_is_seen_by_the_floor_in_every_degree_of_freedom():
+    motions, observed = drive(Scene(**HALL), TURN)
+    distance, turn = truth(TURN)
+    assert motions[1:, 0].sum() == pytest.approx(distance.sum(), rel=0.02)
+    assert motions[1:, 1].sum() == pytest.approx(turn.sum(), rel=0.02)
+    assert all(item.distance == "floor" and item.yaw == "floor" and item.height == "image" for item in observed[1:])
+
+
+def test_a_blank_floor_between_textured_walls_turns_right_and_marks_its_distance():
+    # the floor has marks for its first 3 m (x < -3), then none: the robot drives 12 m over a blank floor
+    scene = Scene(floor=Texture("blobs", level=0.45, blank_beyond=-3.0), **HALL)
+    motions, observed = drive(scene, TURN)
+    distance, turn = truth(TURN)
+    x = TURN[1:, 0]
+    assert motions[1:, 1].sum() == pytest.approx(turn.sum(), rel=0.10)
+    straight = slice(1, 80)  # the first 8 m: no turn at all
+    assert abs(math.degrees(motions[straight, 1].sum())) < 3.0
+    # beyond 1 m onto the blank floor the floor sees nothing: the distance comes from the ceiling or the walls
+    # in the scale the floor gave them, or is held, and is marked so
+    on_blank = [item for item, position in zip(observed[1:], x, strict=True) if position > -2.0]
+    assert on_blank and all(item.distance in ("ceiling", "image", "held") and item.yaw == "image" for item in on_blank)
+    assert motions[1:, 0].sum() == pytest.approx(distance.sum(), rel=0.20)
+
+
+def test_a_uniform_image_claims_no_motion_and_grows_no_map():
+    grey = np.full((120, 160), 0.5, dtype=np.float32)
+    odometry = VisualOdometry()
+    for k in range(30):
+        motion = odometry.step(grey, 0.1 if k else 0.0)
+        assert (motion.forward_speed, motion.yaw_rate, motion.climb_rate) == (0.0, 0.0, 0.0)
+    assert motion.observed.blind == (True, True, True)
+    slam = NeuroSLAM()
+    for k in range(100):
+        estimate = slam.step(grey, 0.1 * k)
+    assert slam.local_view.count == 1 and slam.experience_map.size == 1
+    assert np.allclose(estimate.pose, 0.0)
+
+
+def test_large_tiles_with_sparse_lines_read_the_distance_within_ten_percent_over_twenty_metres():
+    # lines 4 cm wide every 3 m on a blank ground, in a corridor 6 m wide with textured walls
+    scene = Scene(floor=Texture("tiles", level=0.55, scale=3.0, contrast=0.3), half_width=3.0)
+    # 2 m to get going (the robot here starts at full speed: the first frames' prior is rest), then 20 m
+    path = arc_path([(22.0, 0.0)], start=(-11.0, -1.0, 0.0))
+    motions, _ = drive(scene, path)
+    assert motions[21:, 0].sum() == pytest.approx(20.0, rel=0.10)
+    assert abs(math.degrees(motions[1:, 1].sum())) < 3.0
+
+
+def test_an_open_sky_above_a_textured_floor():
+    motions, observed = drive(Scene(ceiling=None, walls=None), TURN)
+    distance, turn = truth(TURN)
+    assert motions[1:, 0].sum() == pytest.approx(distance.sum(), rel=0.02)
+    assert motions[1:, 1].sum() == pytest.approx(turn.sum(), rel=0.02)
+    assert all(item.distance == "floor" and item.yaw == "floor" for item in observed[1:])

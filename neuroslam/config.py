@@ -456,6 +456,10 @@ class ExperienceMapConfig:
             one frame per metre) look back 20 m, because a view there stays the same over a metre or two.
         confirmation_spacing: m; 0 counts every frame (the paper), a distance keeps one frame per that
             much travel in the window, so a view seen for many frames counts once per spacing.
+        confirmation_turn: rad; turning on the spot (on a path curving tighter than 0.5 m, the robot's half
+            length) keeps one frame per this much turn too, so a robot turning in place at a place it knows
+            confirms it without travelling. 5°: the 16 agreeing frames then span 80°, the testbed camera's
+            field of view, over which every part of the view has changed. 0: travel alone counts.
         confirmation_views: templates that count as a window frame's view: its best match and the next
             ones within the match threshold (1: the best alone, the paper). A place seen again a little
             off its first path often matches another place's template slightly better than its own
@@ -489,6 +493,7 @@ class ExperienceMapConfig:
     confirmation_window: int = 20
     confirmation_matches: int = 16
     confirmation_spacing: float = 1.0
+    confirmation_turn: float = math.radians(5.0)
     confirmation_views: int = 2
     confirmation_tolerance: float = 1.0
     confirmation_age: float = 30.0
@@ -527,7 +532,7 @@ class ExperienceMapConfig:
         _positive(path, confirmation_tolerance=self.confirmation_tolerance, closure_weight=self.closure_weight)
         _non_negative(path, confirmation_age=self.confirmation_age, confirmation_drift=self.confirmation_drift,
                       confirmation_climb_error=self.confirmation_climb_error,
-                      confirmation_spacing=self.confirmation_spacing)
+                      confirmation_spacing=self.confirmation_spacing, confirmation_turn=self.confirmation_turn)
 
 
 @dataclass(frozen=True)

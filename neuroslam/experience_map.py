@@ -41,7 +41,7 @@ _STATE_ARRAYS = {
     "link_poses": ("_link_poses", 4, np.float64), "link_times": ("_link_times", 0, np.float64),
     "link_weights": ("_link_weights", 0, np.float64),
     "degree": ("_degree", 0, np.int64), "components": ("_components", 0, np.int64),
-    "sessions": ("_sessions", 0, np.int64),
+    "sessions": ("_sessions", 0, np.int64), "odometers": ("_odometers", 0, np.float64),
 }
 
 
@@ -149,6 +149,7 @@ class ExperienceMap:
         self._degree = _Growing(0, np.int64)
         self._components = _Growing(0, np.int64)  # which connected map each experience belongs to
         self._sessions = _Growing(0, np.int64)  # which session made each experience
+        self._odometers = _Growing(0, np.float64)  # the session's path length when each experience was made, m
         self._linked: set[tuple[int, int]] = set()
         self._by_template: dict[int, list[int]] = {}
         self._settled = True
@@ -157,6 +158,7 @@ class ExperienceMap:
         self.loop_closures = 0
         self.component = 0  # the map the robot is in: new experiences join it, only its experiences match
         self.session = 0  # the current session (see begin_session)
+        self.odometer = 0.0  # m, the path length driven in this session (|distance| summed by integrate)
 
     # the map as arrays -----------------------------------------------------------------------------------
     @property
@@ -217,6 +219,12 @@ class ExperienceMap:
         return self._link_weights.view
 
     @property
+    def odometers(self) -> np.ndarray:
+        """(N,) the path length its session had driven when each experience was made, m (-inf: unknown, a
+        map saved before it was kept)."""
+        return self._odometers.view
+
+    @property
     def link_times(self) -> np.ndarray:
         """(L,) seconds between leaving the source and reaching the target."""
         return self._link_times.view
@@ -231,7 +239,7 @@ class ExperienceMap:
         state = {name: getattr(self, attribute).view.copy() for name, (attribute, _, _) in _STATE_ARRAYS.items()}
         state.update(settled=np.bool_(self._settled), current=np.int64(self.current), relative=self.relative.copy(),
                      loop_closures=np.int64(self.loop_closures), component=np.int64(self.component),
-                     session=np.int64(self.session))
+                     session=np.int64(self.session), odometer=np.float64(self.odometer))
         return state
 
     def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
@@ -240,6 +248,8 @@ class ExperienceMap:
         for name, (attribute, columns, dtype) in _STATE_ARRAYS.items():
             if name == "link_weights" and name not in state and "links" in state:
                 rows = np.ones(len(state["links"]))  # a map saved before links had weights: all alike
+            elif name == "odometers" and name not in state and "poses" in state:
+                rows = np.full(len(state["poses"]), -np.inf)  # a map saved before odometers were kept
             else:
                 rows = state[name]
             try:
@@ -248,7 +258,8 @@ class ExperienceMap:
                 raise ValueError(f"{name}: {error}") from None
         size, links = grown["_poses"].count, grown["_links"].view
         if any(grown[attribute].count != size for attribute in ("_grid_codes", "_direction_codes", "_templates",
-                                                                 "_times", "_degree", "_components", "_sessions")):
+                                                                 "_times", "_degree", "_components", "_sessions",
+                                                                 "_odometers")):
             raise ValueError("the per-experience arrays differ in length")
         if any(grown[attribute].count != len(links) for attribute in ("_link_poses", "_link_times", "_link_weights")):
             raise ValueError("the per-link arrays differ in length")
@@ -269,6 +280,7 @@ class ExperienceMap:
         self.loop_closures = int(state["loop_closures"])
         self.component = int(state["component"])
         self.session = int(state["session"])
+        self.odometer = float(state.get("odometer", 0.0))
 
     def begin_session(self) -> None:
         """Start a new session in a new, empty component: the next update creates its first experience at
@@ -278,6 +290,7 @@ class ExperienceMap:
         self.component = int(self.components.max()) + 1 if self.size else self.component
         self.current = -1
         self.relative = np.zeros(4)
+        self.odometer = 0.0
 
     def enter(self, experience: int, relative: np.ndarray) -> None:
         """Put the robot at ``experience`` (its pose relative to it: ``relative``, x, y, z, yaw) and continue
@@ -425,6 +438,7 @@ class ExperienceMap:
         (rad) turns the direction of travel off the heading (the grid network's read-out, eq. 5)."""
         heading = self.relative[3] + yaw_change / 2 + drift
         self.relative += [distance * math.cos(heading), distance * math.sin(heading), height_change, yaw_change]
+        self.odometer += abs(distance)
 
     def scores(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray) -> np.ndarray:
         """Eq. 22 against every experience: weighted view mismatch plus wrapped code distances (cells)."""
@@ -457,10 +471,13 @@ class ExperienceMap:
         """Match the current conjunctive code, create or re-enter an experience, relax after a loop closure.
 
         With ``may_close_loop`` False (an unconfirmed place under the ``confirmed`` rule) a match that
-        would close a loop creates a new experience instead. ``place`` (an experience id of this view, or
-        -1): the place a run of views confirmed; a loop closes there, not at whichever other experience of
-        the view scores best (along a corridor a view has experiences every metre or two, and the drifted
-        codes may lie nearer a neighbour of the confirmed one). When eq. 22 re-enters the current experience
+        would close a loop creates a new experience instead, unless the robot has not driven since it made
+        the matched experience (:meth:`_on_the_spot`): then it is re-entered as the robot follows the map,
+        with no link and no loop closure (its pose is the robot's place; no map correction is needed).
+        ``place`` (an experience id of this view, or -1): the place a run of views confirmed; a loop closes
+        there, not at whichever other experience of the view scores best (along a corridor a view has
+        experiences every metre or two, and the drifted codes may lie nearer a neighbour of the confirmed
+        one). When eq. 22 re-enters the current experience
         or one linked to it, that stands (the robot follows the map; no loop closes).
         """
         if self.current < 0:
@@ -480,7 +497,9 @@ class ExperienceMap:
         if place >= 0 and closes_loop and best != place:  # close the loop where the views confirmed it
             best, best_score = place, float(self.code_scores(np.array([place]), grid_code, direction_code)[0])
             closes_loop = self._closes_loop(best)
-        if best_score > self.config.threshold or (closes_loop and not may_close_loop):
+        # a match the views have not confirmed, but made where the robot still is: re-entered without a link
+        on_the_spot = closes_loop and not may_close_loop and self._on_the_spot(best)
+        if best_score > self.config.threshold or (closes_loop and not may_close_loop and not on_the_spot):
             previous = self.current
             self._create(template_id, grid_code, direction_code, time, pose=self.robot_pose())
             self._link(previous, self.current, time)
@@ -490,6 +509,7 @@ class ExperienceMap:
         if best == self.current:
             self._relax(self.config.idle_passes)
             return MapUpdate(self.current, False, False)
+        closes_loop = closes_loop and not on_the_spot
         previous = self.current
         offset = self._offset(best, grid_code, direction_code)
         if closes_loop:
@@ -509,6 +529,14 @@ class ExperienceMap:
         self._relax(self.config.relaxation_passes if closes_loop else self.config.idle_passes)
         return MapUpdate(best, False, closes_loop)
 
+    def _on_the_spot(self, experience: int) -> bool:
+        """The robot has driven less than ``confirmation_tolerance`` since it made ``experience`` (in this
+        session): it cannot be more than that from where it made it, so re-entering it needs no confirming
+        views (a robot turning on the spot meets its own experiences again after a revolution; re-entering
+        them puts its heading back where the map has it, and grows the map no more)."""
+        return bool(self.sessions[experience] == self.session
+                    and self.odometer - self.odometers[experience] < self.config.confirmation_tolerance)
+
     def _closes_loop(self, experience: int) -> bool:
         """Re-entering ``experience`` would close a loop: it is neither the current one nor linked to it."""
         return (experience >= 0 and experience != self.current and (self.current, experience) not in self._linked
@@ -526,6 +554,7 @@ class ExperienceMap:
         self._degree.append(0)
         self._components.append(self.component)
         self._sessions.append(self.session)
+        self._odometers.append(self.odometer)
         self.current = self.size - 1
 
     def _link(self, source: int, target: int, time: float, *, weight: float = 1.0) -> None:

@@ -73,6 +73,8 @@ class Estimate:
     merged: bool = False
 
 
+#: m: a path curving tighter than this turns on the spot (the robot's half length); see ``confirmation_turn``
+SPOT_RADIUS = 0.5
 FLOAT_IMAGE_SLACK = 1e-3  # a float image may overshoot [0, 1] by this much (resampling ringing); it is clipped
 
 
@@ -217,12 +219,9 @@ class NeuroSLAM:
         themap.integrate(distance, yaw_change, climb, drift)  # the robot's pose in the map includes this frame's motion
         may_close_loop, merged, place = True, False, -1
         self._since_closure += distance
-        spacing = self.config.experience_map.confirmation_spacing
-        # the newest entry is the latest frame; it stays once it lies ``spacing`` beyond the one before
         entry = (self._odometry_pose, view.template_id,
                  view.alternatives[: self.config.experience_map.confirmation_views - 1])
-        if (len(self._recent) < 2 or spacing == 0
-                or np.linalg.norm(self._recent[-1][0][:3] - self._recent[-2][0][:3]) >= spacing):
+        if len(self._recent) < 2 or self._kept(self._recent[-1][0], self._recent[-2][0]):
             self._recent.append(entry)
         else:
             self._recent[-1] = entry
@@ -452,6 +451,18 @@ class NeuroSLAM:
         logger.info("loaded map %s: %d templates, %d experiences, %d frames", path, slam.local_view.count,
                     slam.experience_map.size, slam.frames)
         return slam
+
+    def _kept(self, newest: np.ndarray, before: np.ndarray) -> bool:
+        """The confirmation window's newest entry (the latest frame's odometry pose) stays: it lies
+        ``confirmation_spacing`` beyond the entry before it, or, turning on the spot (a path curving tighter
+        than :data:`SPOT_RADIUS`), ``confirmation_turn`` round from it. Otherwise the next frame replaces it."""
+        config = self.config.experience_map
+        if config.confirmation_spacing == 0:
+            return True
+        moved = float(np.linalg.norm(newest[:3] - before[:3]))
+        turned = abs(math.remainder(float(newest[3] - before[3]), 2 * math.pi))
+        return moved >= config.confirmation_spacing or (
+            0 < config.confirmation_turn <= turned and moved <= SPOT_RADIUS * turned)
 
     def _confirmed_place(self, relative_yaw: float, time: float) -> int:
         """The old experience the last frames confirm (:func:`~neuroslam.loop_closure.confirm_place`), or -1.

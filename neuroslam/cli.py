@@ -34,6 +34,24 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _non_negative_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value) or value < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be a number >= 0")
+    return value
+
+
+def _camera(args: argparse.Namespace, *, panoramic: bool = False):
+    """The simulated camera the options ask for (:class:`sim.CameraConfig`)."""
+    import sim
+
+    return sim.CameraConfig(width=args.width, height=args.height, panoramic=panoramic, read_noise=args.read_noise,
+                            shot_noise=args.shot_noise, exposure=args.exposure)
+
+
 def _positive_float(text: str) -> float:
     try:
         value = float(text)
@@ -52,6 +70,12 @@ def _drive_options(parser: argparse.ArgumentParser, *, laps: int, camera: bool) 
     if camera:
         parser.add_argument("--width", type=_positive_int, default=160, help="image width in pixels (default: 160)")
         parser.add_argument("--height", type=_positive_int, default=120, help="image height in pixels (default: 120)")
+        parser.add_argument("--read-noise", type=_non_negative_float, default=0.0, metavar="GREY_LEVELS",
+                            help="camera read noise: standard deviation in grey levels of 255 (default: 0)")
+        parser.add_argument("--shot-noise", type=_non_negative_float, default=0.0, metavar="GREY_LEVELS",
+                            help="camera photon noise: its standard deviation at full white (default: 0)")
+        parser.add_argument("--exposure", type=_non_negative_float, default=0.0, metavar="SECONDS",
+                            help="shutter time for motion blur, up to 0.5 s (default: 0, none)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the sensor noise (default: 0)")
     parser.add_argument("--max-frames", type=_positive_int, help="stop after this many frames")
 
@@ -240,7 +264,7 @@ def _drive(args: argparse.Namespace) -> int:
     gravity = GravityPitch()
 
     world, route_name = _world_and_route(args)
-    camera = sim.CameraConfig(width=args.width, height=args.height, panoramic=args.panoramic)
+    camera = _camera(args, panoramic=args.panoramic)
     drive = sim.ScriptedDrive(world, route=route_name, laps=args.laps, speed=args.speed,
                               camera_rate=args.camera_rate, max_frames=args.max_frames, seed=args.seed,
                               camera=camera, quality=args.quality)
@@ -621,7 +645,7 @@ def _record(args: argparse.Namespace) -> int:
 
     world, route = _world_and_route(args)
     drive = sim.ScriptedDrive(world, route=route, laps=args.laps, speed=args.speed, max_frames=args.max_frames,
-                              seed=args.seed, camera=sim.CameraConfig(width=args.width, height=args.height))
+                              seed=args.seed, camera=_camera(args))
     out = args.out
     (out / "frames").mkdir(parents=True, exist_ok=True)
     times, truths, odometry = [], [], []

@@ -128,7 +128,7 @@ ODOMETRY = ("visual", "wheel", "visual-inertial")
 
 
 def _run_drive(world: str, seed: int, setting: tuple, laps: int, max_frames: int | None, folder: str,
-               odometry: str = "visual") -> dict:
+               odometry: str = "visual", camera: tuple[str, ...] = ()) -> dict:
     """One drive in a worker process: ``neuroslam drive`` with the setting as a config file; its metrics, or
     the one-line error of a failed drive."""
     import contextlib
@@ -138,7 +138,8 @@ def _run_drive(world: str, seed: int, setting: tuple, laps: int, max_frames: int
 
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
-    arguments = ["drive", world, "--seed", str(seed), "--laps", str(laps), "--out", str(out), "--odometry", odometry]
+    arguments = ["drive", world, "--seed", str(seed), "--laps", str(laps), "--out", str(out), "--odometry", odometry,
+                 *camera]
     if max_frames is not None:
         arguments += ["--max-frames", str(max_frames)]
     if setting:
@@ -180,11 +181,14 @@ def _write_results(path: Path, rows: list[dict[str, Any]], grid_fields: list[str
 
 def run_sweep(worlds: list[str], seeds: int, grid: list[tuple], out: Path, *, laps: int = 2,
               max_frames: int | None = None, workers: int | None = None, address: str | None = None,
-              odometry: str = "visual", progress: bool = True) -> tuple[list[dict[str, Any]], int]:
+              odometry: str = "visual", camera: dict[str, float] | None = None, progress: bool = True
+              ) -> tuple[list[dict[str, Any]], int]:
     """Run every (world, seed, setting) drive not already ``ok`` in ``out/results.csv`` as a Ray task.
 
     ``odometry`` is the drives' self-motion (``neuroslam drive --odometry``: visual, wheel or
     visual-inertial); one results file holds one kind, so a folder with drives of another kind is refused.
+    ``camera``: the simulated camera's noise, ``{"read_noise": ..., "shot_noise": ..., "exposure": ...}`` (grey
+    levels, grey levels, s; ``neuroslam drive --read-noise`` and so on); a results folder holds one camera too.
     Returns (all rows, how many drives failed in this run). Ray starts locally with ``workers`` CPUs unless
     ``address`` names a running cluster.
     """
@@ -196,9 +200,20 @@ def run_sweep(worlds: list[str], seeds: int, grid: list[tuple], out: Path, *, la
         raise InvalidParameterError("sweep", "without Ray", "needs Ray: pip install \"neuroslam[scale]\"") from None
     from tqdm import tqdm
 
+    camera = {name: float(value) for name, value in (camera or {}).items() if value}
+    unknown = set(camera) - {"read_noise", "shot_noise", "exposure"}
+    if unknown:
+        raise InvalidParameterError("camera", sorted(unknown), "knows read_noise, shot_noise and exposure")
+    camera_arguments = tuple(item for name, value in sorted(camera.items())
+                             for item in (f"--{name.replace('_', '-')}", repr(value)))
     out.mkdir(parents=True, exist_ok=True)
     results = out / "results.csv"
     grid_fields = sorted({field for setting in grid for field, _ in setting})
+    if not (out / "camera.json").exists():
+        (out / "camera.json").write_text(json.dumps(camera, sort_keys=True) + "\n")
+    if json.loads((out / "camera.json").read_text()) != camera:
+        raise InvalidParameterError("camera", camera, f"{out} holds drives with the camera of {out / 'camera.json'}; "
+                                                      "use another --out")
     rows = _read_results(results)
     others = sorted({row["odometry"] for row in rows if row.get("odometry") and row["odometry"] != odometry})
     if others:
@@ -219,7 +234,8 @@ def run_sweep(worlds: list[str], seeds: int, grid: list[tuple], out: Path, *, la
         try:
             task = ray.remote(num_cpus=1)(_run_drive)
             futures = {task.remote(drive.world, drive.seed, drive.setting, laps, max_frames,
-                                   str(out / "drives" / drive.folder_name), odometry): drive for drive in pending}
+                                   str(out / "drives" / drive.folder_name), odometry, camera_arguments): drive
+                       for drive in pending}
             remaining = list(futures)
             with tqdm(total=len(futures), unit="drive", desc="sweep", disable=not progress) as bar:
                 while remaining:

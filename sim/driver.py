@@ -211,10 +211,18 @@ class ScriptedDrive:
         """Route length the drive covers, m."""
         return self.route.length * (self.laps if self.route.loop else 1)
 
-    def _frame(self, index: int) -> Frame:
+    def _frame(self, index: int, exposure: list[np.ndarray] | None = None) -> Frame:
+        """The frame now; ``exposure``: renders from earlier in the shutter's open time, averaged in (motion
+        blur) before the camera's noise is added."""
         simulation = self.simulation
         started = time.perf_counter()
-        image = simulation.render() if self.render else np.zeros((0, 0, 3), np.uint8)
+        if not self.render:
+            image = np.zeros((0, 0, 3), np.uint8)
+        elif exposure:
+            image = np.mean([*exposure, simulation.render(noise=False)], axis=0)
+            image = simulation.camera.add_noise(np.rint(image).astype(np.uint8), simulation.camera_rng)
+        else:
+            image = simulation.render()
         self.timings["render"] += time.perf_counter() - started
         lap = self.laps_completed
         return Frame(index, simulation.time, image, simulation.ground_truth(), simulation.wheel_odometry(),
@@ -228,19 +236,29 @@ class ScriptedDrive:
         period = 1.0 / self.camera_rate
         control_period = simulation.substeps * simulation.model.opt.timestep
         periods_per_frame = max(1, round(period / control_period))
+        # motion blur: renders at the start and the middle of the exposure, the frame's own at its end
+        exposure = simulation.camera.exposure if self.render else 0.0
+        open_periods = min(periods_per_frame, round(exposure / control_period)) if exposure > 0 else 0
+        marks = {periods_per_frame - open_periods, periods_per_frame - open_periods // 2} if open_periods else set()
         last_progress, last_time = 0.0, 0.0
         index = 0
         try:
             yield self._frame(index)
             while self.max_frames is None or index + 1 < self.max_frames:
                 started = time.perf_counter()
-                for _ in range(periods_per_frame):
+                samples = []
+                for period_index in range(periods_per_frame):
+                    if period_index in marks:
+                        rendering = time.perf_counter()
+                        samples.append(simulation.render(noise=False))
+                        self.timings["render"] += time.perf_counter() - rendering
+                        started += time.perf_counter() - rendering
                     truth = simulation.ground_truth()
                     simulation.set_command(*self.controller.command(truth.position, truth.yaw))
                     simulation.step(control_period)
                 self.timings["physics"] += time.perf_counter() - started
                 index += 1
-                yield self._frame(index)
+                yield self._frame(index, samples)
                 progress = self.controller.progress
                 if progress >= self.total_distance - FINISH_TOLERANCE or self.controller.finished:
                     logger.info("drive of %r/%r done: %d frames, %.1f m, %.1f s simulated", self.world.name,

@@ -73,12 +73,22 @@ class CameraConfig:
         panoramic: when True, four cameras 90 degrees apart are stitched into a 360-degree strip whose
             centre column looks straight ahead and whose left edge looks straight back (bearing +pi);
             ``width`` must then be a multiple of 4.
+        read_noise: grey levels (of 255): standard deviation of the Gaussian noise added to every pixel and
+            channel whatever the light (a sensor's read noise); 0 for none.
+        shot_noise: grey levels: standard deviation of the photon (shot) noise at full white; at intensity I
+            it is shot_noise × sqrt(I / 255), so dark parts of the image are relatively noisier; 0 for none.
+        exposure: seconds the shutter is open before each frame; above 0 each frame is the mean of renders at
+            the start, middle and end of that time (motion blur; three times the render cost). Scripted
+            drives only.
     """
 
     width: int = 160
     height: int = 120
     horizontal_fov: float = math.radians(80.0)
     panoramic: bool = False
+    read_noise: float = 0.0
+    shot_noise: float = 0.0
+    exposure: float = 0.0
 
     def __post_init__(self) -> None:
         for field in ("width", "height"):
@@ -88,8 +98,28 @@ class CameraConfig:
         if not isinstance(self.horizontal_fov, (int, float)) or not 0.05 < self.horizontal_fov < math.pi - 0.05:
             raise InvalidParameterError("camera.horizontal_fov", self.horizontal_fov,
                                         "must be in (0.05, pi - 0.05) radians")
+        for field in ("read_noise", "shot_noise", "exposure"):
+            value = getattr(self, field)
+            if (not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value)
+                    or not 0 <= value <= (0.5 if field == "exposure" else 255)):
+                limit = "0.5 s" if field == "exposure" else "255 grey levels"
+                raise InvalidParameterError(f"camera.{field}", value, f"must be a number from 0 to {limit}")
         if self.panoramic and self.width % 4:
             raise InvalidParameterError("camera.width", self.width, "must be a multiple of 4 for a panoramic camera")
+
+    @property
+    def noisy(self) -> bool:
+        """Any read or shot noise is added to the images."""
+        return self.read_noise > 0 or self.shot_noise > 0
+
+    def add_noise(self, image: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """``image`` (uint8 RGB) with this camera's read and shot noise drawn from ``rng``, rounded to uint8."""
+        if not self.noisy:
+            return image
+        signal = image.astype(np.float32)
+        deviation = np.sqrt(self.read_noise**2 + self.shot_noise**2 * signal / 255.0)
+        noisy = signal + deviation * rng.standard_normal(image.shape, dtype=np.float32)
+        return np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
 
     @property
     def view_width(self) -> int:

@@ -247,6 +247,8 @@ class Simulation:
                                                math.cos(yaw / 2), 0, 0, math.sin(yaw / 2)]
         mujoco.mj_forward(self.model, self.data)
         self.rng = np.random.default_rng(seed)
+        # the camera's noise from a stream of its own, so that switching it on leaves the other sensors' alone
+        self.camera_rng = np.random.default_rng(None if seed is None else [seed, 0xCA3])
         self._odometry = _OdometryState(encoders=self._encoders().copy())
         self._command = np.zeros(2)  # applied (forward speed, yaw rate), slewing towards the target
         self._target = np.zeros(2)
@@ -363,8 +365,9 @@ class Simulation:
         accelerometer += self.rng.normal(0.0, self.noise.accelerometer, 3) if self.noise.accelerometer else 0.0
         return ImuReading(gyro, accelerometer)
 
-    def render(self) -> np.ndarray:
-        """The camera image now: (height, width, 3) uint8 RGB, a fresh array."""
+    def render(self, *, noise: bool = True) -> np.ndarray:
+        """The camera image now: (height, width, 3) uint8 RGB, a fresh array, with the camera's read and shot
+        noise (:class:`~sim.robot.CameraConfig`) unless ``noise`` is False."""
         if self._renderer is None:
             try:
                 self._renderer = mujoco.Renderer(self.model, self.camera.height, self.camera.view_width)
@@ -377,7 +380,8 @@ class Simulation:
         for camera in self._cameras:
             self._renderer.update_scene(self.data, camera=camera)
             views.append(self._renderer.render())
-        return views[0].copy() if len(views) == 1 else np.concatenate(views, axis=1)
+        image = views[0].copy() if len(views) == 1 else np.concatenate(views, axis=1)
+        return self.camera.add_noise(image, self.camera_rng) if noise else image
 
     def warnings(self) -> dict[str, int]:
         """MuJoCo warnings raised so far, by name (empty when none)."""

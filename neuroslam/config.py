@@ -175,10 +175,6 @@ class VisualOdometryConfig:
             region below which the image does not see the yaw (nor the pitch), and the odometry says it is
             blind. 0.2 is five times what sensor noise of 5 grey levels alone gives a uniform image (0.04: noise
             must never count as seeing), and a twentieth of what any texture across the image gives (1–4).
-        image_expansions: the expansions of eq. R1's forward flow (:mod:`neuroslam.vision.pitch`): 1, one for the
-            whole image, or 4, one per quadrant. Forward motion moves near things faster: with a wall close on
-            one side and far on the other, one expansion leaves the difference to the yaw (measured on a blank
-            floor in an 18 × 12 m hall, 2 m from one wall: 8.7° over 8 m straight with 1, 1.8° with 4).
         blind_hold: seconds a speed or turn rate is held where nothing observes it, before it is taken as 0.
         scale_memory: seconds over which the metric scale of the upper image's expansion (walls, ceiling) is
             learnt from the floor's distance, to be carried where the floor shows none (a time constant).
@@ -209,7 +205,6 @@ class VisualOdometryConfig:
     near_floor_row: float = 0.5
     floor_min_information: float = 1.0
     min_image_information: float = 0.2
-    image_expansions: int = 4
     blind_hold: float = 2.0
     scale_memory: float = 10.0
 
@@ -249,8 +244,6 @@ class VisualOdometryConfig:
                  "must be an angle from 0 to max_slope, rad")
         _non_negative(path, min_image_information=self.min_image_information, blind_hold=self.blind_hold,
                       floor_min_information=self.floor_min_information)
-        _require(f"{path}.image_expansions", self.image_expansions, self.image_expansions in (1, 4),
-                 "must be 1 (one expansion for the whole image) or 4 (one per quadrant)")
         _positive(path, scale_memory=self.scale_memory)
 
 

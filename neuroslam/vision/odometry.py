@@ -44,6 +44,9 @@ __all__ = ["BLIND", "Observed", "SelfMotion", "VisualOdometry", "best_shift", "v
 
 BLIND = ("held", "none")  # the sources of a degree of freedom that nothing observed
 _NOMINAL_CEILING = 2.0  # m above the camera: where the ceiling's first alignment starts (a 2.5 m room)
+# where the floor sees the distance, the ceiling's height is learnt on every fifth frame: it changes over
+# seconds, not frames (twice a second at 10 Hz: 20 readings within scale_memory), at a fifth of the cost
+_CEILING_EVERY = 5
 
 
 @dataclass(frozen=True)
@@ -192,6 +195,7 @@ class VisualOdometry:
         # the ceiling's height above the camera (m), learnt the same way from its distance in units of that
         # height (eq. S1 with the ceiling's d / H instead of e)
         self._ceiling_sums = np.zeros(2)
+        self._ceiling_countdown = 0
         self._ceiling = None
         if self._ground is not None and config.height_model == "transitions":
             self._ceiling = GroundMotion(horizontal_fov=horizontal_fov, camera_height=1.0,
@@ -204,8 +208,7 @@ class VisualOdometry:
                                             "needs a pinhole camera; use 'profile' for a panorama")
             region = config.height_region
             self._alignment = RotationAlignment(horizontal_fov=horizontal_fov,
-                                                region=(region.top, region.bottom, region.left, region.right),
-                                                expansions=config.image_expansions)
+                                                region=(region.top, region.bottom, region.left, region.right))
             self.transitions = LevelTransitions(transition_rate=config.transition_rate,
                                                  transition_min=config.transition_min, max_slope=config.max_slope,
                                                  level_snap=config.level_snap)
@@ -226,7 +229,8 @@ class VisualOdometry:
                           "transitions.yaw": np.float64(self._alignment.yaw),
                           "observed.held": self._held.copy(), "observed.blind_for": self._blind_for.copy(),
                           "observed.scale_sums": self._scale_sums.copy(),
-                          "observed.ceiling_sums": self._ceiling_sums.copy()})
+                          "observed.ceiling_sums": self._ceiling_sums.copy(),
+                          "observed.ceiling_countdown": np.int64(self._ceiling_countdown)})
         return state
 
     def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
@@ -253,6 +257,7 @@ class VisualOdometry:
             self._blind_for = np.asarray(state.get("observed.blind_for", np.full(2, math.inf)), dtype=float).copy()
             self._scale_sums = np.asarray(state.get("observed.scale_sums", np.zeros(2)), dtype=float).copy()
             self._ceiling_sums = np.asarray(state.get("observed.ceiling_sums", np.zeros(2)), dtype=float).copy()
+            self._ceiling_countdown = int(state.get("observed.ceiling_countdown", 0))
             if self._ground is not None:
                 self._finest = self._ground.finest
             else:
@@ -420,22 +425,31 @@ class VisualOdometry:
         floor_sees = ground.sees_distance
         if floor_sees:
             yaw, yaw_source = floor_yaw, "floor"
-        elif image_sees_yaw:
-            yaw, yaw_source = float(np.clip(aligned_yaw, -limit_yaw, limit_yaw)), "image"
+        elif image_sees_yaw:  # the yaw again with the walls' depths apart (one expansion per quadrant)
+            quadrant_yaw, information = alignment.quadrant_yaw()
+            if information / max(alignment.pixels, 1) < config.min_image_information:
+                quadrant_yaw = aligned_yaw
+            yaw, yaw_source = float(np.clip(quadrant_yaw, -limit_yaw, limit_yaw)), "image"
         else:
             yaw, yaw_source = None, ""
-        expansion, expansion_information = alignment.upper
         ceiling, memory = self._ceiling, math.exp(-dt / config.scale_memory)
         height = self._ceiling_sums[0] / self._ceiling_sums[1] if self._ceiling_sums[1] > 0 else 0.0
         if floor_sees:
             distance, distance_source = floor_distance, "floor"
-            if image_sees_yaw and expansion > 0 and floor_distance > 0 and expansion_information > 0:
-                self._scale_sums = memory * self._scale_sums + (floor_distance * expansion, expansion**2)
-            if floor_distance > 0:  # the ceiling's height, where the ceiling sees the motion too
+            # the scales' memory runs while the floor sees (a blank stretch keeps the last scales as they were);
+            # they are learnt on every fifth such frame (_CEILING_EVERY)
+            self._scale_sums *= memory
+            self._ceiling_sums *= memory
+            self._ceiling_countdown -= 1
+            if floor_distance > 0 and self._ceiling_countdown <= 0:
+                self._ceiling_countdown = _CEILING_EVERY
                 reading, _ = ceiling.align(self._ceiling_previous, ground.pyramid,
                                            (floor_distance / (height or _NOMINAL_CEILING), floor_yaw))
                 if ceiling.sees_distance and reading > 0:
-                    self._ceiling_sums = memory * self._ceiling_sums + (floor_distance * reading, reading**2)
+                    self._ceiling_sums += (floor_distance * reading, reading**2)
+                expansion, expansion_information = alignment.upper_expansion() if image_sees_yaw else (0.0, 0.0)
+                if expansion > 0 and expansion_information > 0:
+                    self._scale_sums += (floor_distance * expansion, expansion**2)
         else:
             distance, distance_source = None, ""
             previous_distance = self._held[0] * dt
@@ -445,9 +459,10 @@ class VisualOdometry:
                 if ceiling.information[0] / height**2 >= ceiling.min_information and reading >= 0:
                     distance, distance_source = float(np.clip(height * reading, 0.0, limit_distance)), "ceiling"
             scale = self._scale_sums[0] / self._scale_sums[1] if self._scale_sums[1] > 0 else 0.0
-            if (distance is None and image_sees_yaw and scale > 0
-                    and expansion_information / scale**2 >= ground.min_information * ground.distance_weight):
-                distance, distance_source = float(np.clip(scale * expansion, 0.0, limit_distance)), "image"
+            if distance is None and image_sees_yaw and scale > 0:
+                expansion, expansion_information = alignment.upper_expansion()
+                if expansion_information / scale**2 >= ground.min_information * ground.distance_weight:
+                    distance, distance_source = float(np.clip(scale * expansion, 0.0, limit_distance)), "image"
         rates = []
         for k, (value, source) in enumerate(((distance, distance_source), (yaw, yaw_source))):
             if value is not None:

@@ -47,6 +47,25 @@ _NOMINAL_CEILING = 2.0  # m above the camera: where the ceiling's first alignmen
 # where the floor sees the distance, the ceiling's height is learnt on every fifth frame: it changes over
 # seconds, not frames (twice a second at 10 Hz: 20 readings within scale_memory), at a fifth of the cost
 _CEILING_EVERY = 5
+# the floor's information on the distance (in the prior's weights) from which it outweighs the prior
+_FIRM_FLOOR = 1.0
+# a cue's scale is carried only where its readings were proportional to the floor's distances within this
+# (the relative RMS misfit of eq. S1, which holds the floor's own frame-to-frame error too): a ceiling is a
+# plane, facades and open sky are not. Measured: a flat ceiling over textured or sparsely tiled floors in
+# the synthetic scenes of tests/scenes.py 0.01–0.26, the building's ceilings over its corridors 0.16–0.42,
+# urban's facades and sky 0.43–0.69 (10th–90th percentiles)
+_SCALE_MISFIT = 0.2
+
+
+def _scale(sums: np.ndarray) -> float:
+    """Eq. S1's scale from its running sums (Σ d c, Σ c², Σ d²), or 0 where there is none or the readings c
+    were not proportional to the distances d: relative misfit sqrt(1 - (Σ d c)² / (Σ c² Σ d²)) above
+    :data:`_SCALE_MISFIT`."""
+    products, readings, distances = sums
+    if readings <= 0 or distances <= 0:
+        return 0.0
+    misfit = math.sqrt(max(0.0, 1.0 - products**2 / (readings * distances)))
+    return products / readings if misfit <= _SCALE_MISFIT else 0.0
 
 
 @dataclass(frozen=True)
@@ -191,10 +210,10 @@ class VisualOdometry:
         self._blind_for = np.full(2, math.inf)
         # the metric scale of the upper image's expansion (m per unit), learnt where the floor sees the
         # distance: running sums of d e and e² (eq. S1 of the module docstring)
-        self._scale_sums = np.zeros(2)
+        self._scale_sums = np.zeros(3)
         # the ceiling's height above the camera (m), learnt the same way from its distance in units of that
         # height (eq. S1 with the ceiling's d / H instead of e)
-        self._ceiling_sums = np.zeros(2)
+        self._ceiling_sums = np.zeros(3)
         self._ceiling_countdown = 0
         self._ceiling = None
         if self._ground is not None and config.height_model == "transitions":
@@ -255,8 +274,8 @@ class VisualOdometry:
             # a map saved before the odometry reported what it observed starts blind, with no scale
             self._held = np.asarray(state.get("observed.held", np.zeros(2)), dtype=float).copy()
             self._blind_for = np.asarray(state.get("observed.blind_for", np.full(2, math.inf)), dtype=float).copy()
-            self._scale_sums = np.asarray(state.get("observed.scale_sums", np.zeros(2)), dtype=float).copy()
-            self._ceiling_sums = np.asarray(state.get("observed.ceiling_sums", np.zeros(2)), dtype=float).copy()
+            self._scale_sums = np.asarray(state.get("observed.scale_sums", np.zeros(3)), dtype=float).copy()
+            self._ceiling_sums = np.asarray(state.get("observed.ceiling_sums", np.zeros(3)), dtype=float).copy()
             self._ceiling_countdown = int(state.get("observed.ceiling_countdown", 0))
             if self._ground is not None:
                 self._finest = self._ground.finest
@@ -433,8 +452,12 @@ class VisualOdometry:
         else:
             yaw, yaw_source = None, ""
         ceiling, memory = self._ceiling, math.exp(-dt / config.scale_memory)
-        height = self._ceiling_sums[0] / self._ceiling_sums[1] if self._ceiling_sums[1] > 0 else 0.0
-        if floor_sees:
+        height = _scale(self._ceiling_sums)
+        # the floor sees the distance firmly where its information outweighs the prior's (1); between
+        # floor_min_information and that, a ceiling or upper image whose scale holds is read instead
+        firm = floor_sees and ground.information[0] >= _FIRM_FLOOR
+        distance, distance_source = None, ""
+        if firm:
             distance, distance_source = floor_distance, "floor"
             # the scales' memory runs while the floor sees (a blank stretch keeps the last scales as they were);
             # they are learnt on every fifth such frame (_CEILING_EVERY)
@@ -446,35 +469,32 @@ class VisualOdometry:
                 reading, _ = ceiling.align(self._ceiling_previous, ground.pyramid,
                                            (floor_distance / (height or _NOMINAL_CEILING), floor_yaw))
                 if ceiling.sees_distance and reading > 0:
-                    self._ceiling_sums += (floor_distance * reading, reading**2)
+                    self._ceiling_sums += (floor_distance * reading, reading**2, floor_distance**2)
                 expansion, expansion_information = alignment.upper_expansion() if image_sees_yaw else (0.0, 0.0)
                 if expansion > 0 and expansion_information > 0:
-                    self._scale_sums += (floor_distance * expansion, expansion**2)
+                    self._scale_sums += (floor_distance * expansion, expansion**2, floor_distance**2)
         else:
-            distance, distance_source = None, ""
             previous_distance = self._held[0] * dt
             if height > 0:
                 reading, _ = ceiling.align(self._ceiling_previous, ground.pyramid,
                                            (previous_distance / height, float(ground.motion[1])))
                 if ceiling.information[0] / height**2 >= ceiling.min_information and reading >= 0:
                     distance, distance_source = float(np.clip(height * reading, 0.0, limit_distance)), "ceiling"
-            scale = self._scale_sums[0] / self._scale_sums[1] if self._scale_sums[1] > 0 else 0.0
+            scale = _scale(self._scale_sums)
             if distance is None and image_sees_yaw and scale > 0:
                 expansion, expansion_information = alignment.upper_expansion()
                 if expansion_information / scale**2 >= ground.min_information * ground.distance_weight:
                     distance, distance_source = float(np.clip(scale * expansion, 0.0, limit_distance)), "image"
-        rates = []
-        for k, (value, source) in enumerate(((distance, distance_source), (yaw, yaw_source))):
-            if value is not None:
-                self._held[k], self._blind_for[k] = value / dt, 0.0
-                rates.append((value, source))
-                continue
-            self._blind_for[k] += dt
-            if self._blind_for[k] <= config.blind_hold:
-                rates.append((self._held[k] * dt, "held"))
-            else:
-                rates.append((0.0, "none"))
-        (distance, distance_source), (yaw, yaw_source) = rates
+            if distance is None and floor_sees:
+                distance, distance_source = floor_distance, "floor"
+        if distance is not None:
+            self._held[0], self._blind_for[0] = distance / dt, 0.0
+        else:  # nothing sees the distance: the last speed, for blind_hold seconds
+            self._blind_for[0] += dt
+            held = self._blind_for[0] <= config.blind_hold
+            distance, distance_source = (self._held[0] * dt, "held") if held else (0.0, "none")
+        if yaw is None:  # nothing sees the yaw: no turn (a held turn rate measured 1.3° a frame off)
+            yaw, yaw_source = 0.0, "none"
         if distance_source != "floor" or yaw_source != "floor":
             ground.motion = np.array([distance, yaw])
         return distance, yaw, Observed(distance_source, yaw_source, "image" if pitch_seen else "held")

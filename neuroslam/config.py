@@ -176,7 +176,11 @@ class VisualOdometryConfig:
             region below which the image does not see the yaw (nor the pitch), and the odometry says it is
             blind. 0.2 is five times what sensor noise of 5 grey levels alone gives a uniform image (0.04: noise
             must never count as seeing), and a twentieth of what any texture across the image gives (1–4).
-        blind_hold: seconds a speed or turn rate is held where nothing observes it, before it is taken as 0.
+        blind_hold: seconds the last observed speed is held where nothing observes the distance, before it is
+            taken as 0 (a turn rate is never held: where nothing sees the yaw there is no turn). 10: as long as
+            the scales of the ceiling and the upper image are remembered (``scale_memory``), the robot's motion
+            is taken to go on as last seen. (2 s dropped the building's blank stretches to 0 for 55 frames a
+            lap, 5.5 m; its SLAM ATE 2.09 m against 1.60 m with 10 s.)
         scale_memory: seconds over which the metric scale of the upper image's expansion (walls, ceiling) is
             learnt from the floor's distance, to be carried where the floor shows none (a time constant).
     """
@@ -206,7 +210,7 @@ class VisualOdometryConfig:
     near_floor_row: float = 0.5
     floor_min_information: float = 0.3
     min_image_information: float = 0.2
-    blind_hold: float = 2.0
+    blind_hold: float = 10.0
     scale_memory: float = 10.0
 
     def __post_init__(self) -> None:

@@ -80,9 +80,10 @@ class Observed:
     - ``image``: the whole image: its rotation for the yaw and pitch (eqs. R1–R2: walls, ceiling, anything
       far or near); for the distance, the expansion of the image above its centre in the scale the floor
       last gave it (eq. S1);
-    - ``held``: nothing observed it; the last observed rate, held for at most ``odometry.blind_hold`` seconds
-      (a ramp's foot or top, where the floor is not one plane, holds the speed too);
-    - ``none``: nothing observed it and nothing is held: zero;
+    - ``held``: nothing observed it; the last observed speed, held for at most ``odometry.blind_hold``
+      seconds (a ramp's foot or top, where the floor is not one plane, holds the speed too; for the height:
+      the pitch holds, as it does between transitions);
+    - ``none``: nothing observed it and nothing is held: zero (a turn rate is never held);
     - ``external``: given by another sensor (wheels, an IMU).
     """
 
@@ -434,10 +435,10 @@ class VisualOdometry:
 
         A ceiling's height is the same along a level, and usually from level to level: it carries the scale
         over a blank floor; the upper image's depth changes with where the robot is, so the expansion is the
-        last resort before holding. Where nothing observes a degree of freedom, its last observed rate is held
-        for ``blind_hold`` seconds, then it is 0; the frame is marked blind in it (:class:`Observed`). The
-        floor's prior for the next frame (eq. G3's (d0, w0)) becomes what was taken, so a blank floor does not
-        carry a stale motion on.
+        last resort before holding. Where nothing observes the distance, the last observed speed is held for
+        ``blind_hold`` seconds, then it is 0; where nothing observes the yaw, there is no turn; the frame is
+        marked blind in it (:class:`Observed`). The floor's prior for the next frame (eq. G3's (d0, w0))
+        becomes what was taken, so a blank floor does not carry a stale motion on.
         """
         config, ground, alignment = self.config, self._ground, self._alignment
         limit_distance, limit_yaw = config.max_speed * dt, config.max_yaw_rate * dt

@@ -206,9 +206,9 @@ class VisualOdometry:
                                         min_information=config.floor_min_information)
         self._alignment = self.transitions = None
         self._speed = 0.0  # m/s, the last speed measured off a transition (held across one)
-        # where nothing observes a degree of freedom: the last observed rates (m/s, rad/s) and the seconds since
-        self._held = np.zeros(2)
-        self._blind_for = np.full(2, math.inf)
+        # where nothing observes the distance, this speed is held (odometry.blind_hold)
+        self._held_speed = 0.0  # m/s, the last observed speed
+        self._blind_for = math.inf  # s since the distance was last observed (inf: never)
         # the metric scale of the upper image's expansion (m per unit), learnt where the floor sees the
         # distance: running sums of d e and e² (eq. S1 of the module docstring)
         self._scale_sums = np.zeros(3)
@@ -247,7 +247,8 @@ class VisualOdometry:
                           "transitions.run": np.float64(self.transitions.run),
                           "transitions.speed": np.float64(self._speed),
                           "transitions.yaw": np.float64(self._alignment.yaw),
-                          "observed.held": self._held.copy(), "observed.blind_for": self._blind_for.copy(),
+                          "observed.held_speed": np.float64(self._held_speed),
+                          "observed.blind_for": np.float64(self._blind_for),
                           "observed.scale_sums": self._scale_sums.copy(),
                           "observed.ceiling_sums": self._ceiling_sums.copy(),
                           "observed.ceiling_countdown": np.int64(self._ceiling_countdown)})
@@ -273,8 +274,8 @@ class VisualOdometry:
             self._speed = float(state.get("transitions.speed", 0.0))
             self._alignment.yaw = float(state.get("transitions.yaw", 0.0))
             # a map saved before the odometry reported what it observed starts blind, with no scale
-            self._held = np.asarray(state.get("observed.held", np.zeros(2)), dtype=float).copy()
-            self._blind_for = np.asarray(state.get("observed.blind_for", np.full(2, math.inf)), dtype=float).copy()
+            self._held_speed = float(state.get("observed.held_speed", 0.0))
+            self._blind_for = float(state.get("observed.blind_for", math.inf))
             self._scale_sums = np.asarray(state.get("observed.scale_sums", np.zeros(3)), dtype=float).copy()
             self._ceiling_sums = np.asarray(state.get("observed.ceiling_sums", np.zeros(3)), dtype=float).copy()
             self._ceiling_countdown = int(state.get("observed.ceiling_countdown", 0))
@@ -475,7 +476,7 @@ class VisualOdometry:
                 if expansion > 0 and expansion_information > 0:
                     self._scale_sums += (floor_distance * expansion, expansion**2, floor_distance**2)
         else:
-            previous_distance = self._held[0] * dt
+            previous_distance = self._held_speed * dt
             if height > 0:
                 reading, _ = ceiling.align(self._ceiling_previous, ground.pyramid,
                                            (previous_distance / height, float(ground.motion[1])))
@@ -489,11 +490,11 @@ class VisualOdometry:
             if distance is None and floor_sees:
                 distance, distance_source = floor_distance, "floor"
         if distance is not None:
-            self._held[0], self._blind_for[0] = distance / dt, 0.0
+            self._held_speed, self._blind_for = distance / dt, 0.0
         else:  # nothing sees the distance: the last speed, for blind_hold seconds
-            self._blind_for[0] += dt
-            held = self._blind_for[0] <= config.blind_hold
-            distance, distance_source = (self._held[0] * dt, "held") if held else (0.0, "none")
+            self._blind_for += dt
+            held = self._blind_for <= config.blind_hold
+            distance, distance_source = (self._held_speed * dt, "held") if held else (0.0, "none")
         if yaw is None:  # nothing sees the yaw: no turn (a held turn rate measured 1.3° a frame off)
             yaw, yaw_source = 0.0, "none"
         if distance_source != "floor" or yaw_source != "floor":

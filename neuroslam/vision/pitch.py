@@ -75,7 +75,6 @@ class RotationAlignment:
         self.robust_scale = robust_scale
         self.iterations = iterations
         self.yaw = 0.0  # rad, the last frame's aligned yaw change (the next frame's first start)
-        self.expansion = 0.0  # the last frame's expansion e of eq. R1 (forward motion over depth)
         # the last frame's information on (yaw, pitch, expansion): each the inverse of its entry of the inverse
         # normal matrix of eq. R2 (the other two free), intensity² per rad² (per unit for e)
         self.information = np.zeros(3)
@@ -120,7 +119,7 @@ class RotationAlignment:
         if not math.isfinite(cost):
             parameters, information = np.array([floor_yaw, 0.0, 0.0]), np.zeros(3)
         yaw, pitch = float(parameters[0]), float(parameters[1])
-        self.yaw, self.expansion, self.information = yaw, float(parameters[2]), information
+        self.yaw, self.information = yaw, information
         self._last = (previous, current, parameters, math.isfinite(cost))
         return yaw, pitch
 

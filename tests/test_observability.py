@@ -93,3 +93,31 @@ def test_an_open_sky_above_a_textured_floor():
     assert motions[1:, 0].sum() == pytest.approx(distance.sum(), rel=0.02)
     assert motions[1:, 1].sum() == pytest.approx(turn.sum(), rel=0.02)
     assert all(item.distance == "floor" and item.yaw == "floor" for item in observed[1:])
+
+
+def test_a_floor_solution_the_whole_image_contradicts_is_not_taken(monkeypatch):
+    # a wrong minimum of the floor alignment (as on a sparsely marked ramp: single frames read 3–13 degrees of
+    # turn while driving straight): every tenth frame the floor reports 8 degrees of turn and half the
+    # distance. The whole image (walls, ceiling) sees no turn there, so neither reading may be taken.
+    from neuroslam.vision.ground_motion import GroundMotion
+
+    step = GroundMotion.step
+    frames = {"count": 0}
+
+    def wrong_every_tenth(self, image):
+        distance, turn = step(self, image)
+        frames["count"] += 1
+        if frames["count"] % 10 == 5:
+            distance, turn = distance / 2, turn + math.radians(8.0)
+            self.motion = np.array([distance, turn])
+        return distance, turn
+
+    monkeypatch.setattr(GroundMotion, "step", wrong_every_tenth)
+    motions, observed = drive(Scene(**HALL), TURN)
+    distance, turn = truth(TURN)
+    wrong = [k for k in range(1, len(TURN)) if k % 10 == 4]  # step's count starts at the first image
+    assert all(observed[k].yaw == "image" and observed[k].distance != "floor" for k in wrong)
+    assert motions[1:, 1].sum() == pytest.approx(turn.sum(), rel=0.05)  # 15 wrong frames would add 120 degrees
+    assert motions[1:, 0].sum() == pytest.approx(distance.sum(), rel=0.05)
+    others = [item for k, item in enumerate(observed) if k and k not in wrong]
+    assert sum(item.yaw == "floor" for item in others) >= 0.95 * len(others)

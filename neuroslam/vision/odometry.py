@@ -421,8 +421,10 @@ class VisualOdometry:
 
         - Yaw: the floor's (eqs. G3–G4) where the floor has marks (it sees the distance: a floor showing only
           lines along the path, or only its edges against the walls, sees the yaw through them, and walls
-          standing close take part in it with a bias, see :mod:`.ground_motion`); else the whole image's
-          (eq. R2: walls, ceiling) where it sees the yaw; else held.
+          standing close take part in it with a bias, see :mod:`.ground_motion`) and the whole image's yaw
+          (eq. R2) agrees with it within ``floor_yaw_tolerance`` (else the floor's solution, distance and yaw,
+          is a wrong minimum and is not used); else the whole image's (eq. R2: walls, ceiling) where it sees
+          the yaw; else none.
         - Distance, in this order: the floor's where it sees it; the ceiling's (eqs. G1–G3 on the image above
           the horizon, a plane H above the camera: it gives d / H) times the ceiling height the floor last
           gave it; the expansion e of the upper image (walls, ceiling, eq. R1) times the scale the floor last
@@ -443,7 +445,10 @@ class VisualOdometry:
         """
         config, ground, alignment = self.config, self._ground, self._alignment
         limit_distance, limit_yaw = config.max_speed * dt, config.max_yaw_rate * dt
-        floor_sees = ground.sees_distance
+        # a floor solution whose yaw the whole image contradicts is a wrong minimum of eq. G3: neither its yaw
+        # nor its distance is taken (odometry.floor_yaw_tolerance)
+        floor_sees = ground.sees_distance and (
+            not image_sees_yaw or abs(floor_yaw - aligned_yaw) <= config.floor_yaw_tolerance)
         if floor_sees:
             yaw, yaw_source = floor_yaw, "floor"
         elif image_sees_yaw:  # the yaw again with the walls' depths apart (one expansion per quadrant)
@@ -477,10 +482,11 @@ class VisualOdometry:
                     self._scale_sums += (floor_distance * expansion, expansion**2, floor_distance**2)
         else:
             previous_distance = self._held_speed * dt
-            if height > 0:
-                reading, _ = ceiling.align(self._ceiling_previous, ground.pyramid,
-                                           (previous_distance / height, float(ground.motion[1])))
-                if ceiling.information[0] / height**2 >= ceiling.min_information and reading >= 0:
+            if height > 0:  # from the yaw taken above (the floor's own may be the wrong minimum just refused)
+                reading, ceiling_yaw = ceiling.align(self._ceiling_previous, ground.pyramid,
+                                                     (previous_distance / height, yaw or 0.0))
+                if (ceiling.information[0] / height**2 >= ceiling.min_information and reading >= 0
+                        and (yaw is None or abs(ceiling_yaw - yaw) <= config.floor_yaw_tolerance)):
                     distance, distance_source = float(np.clip(height * reading, 0.0, limit_distance)), "ceiling"
             scale = _scale(self._scale_sums)
             if distance is None and image_sees_yaw and scale > 0:

@@ -1,14 +1,15 @@
 """Does the accuracy hold on worlds nobody tuned on? The distribution over many generated worlds.
 
 Run: ``python benchmarks/generalization.py --out runs/generalization [--odometry wheel] [--quick]
-[--camera-noise] [--workers 2] [--laps 2] [--grid FIELD=VALUE ...]``. A measurement, not a test: it asserts
-nothing and is not part of the pytest run. About 35 minutes with 2 workers here (``--quick``: about 5).
+[--camera-noise] [--generator N] [--workers 2] [--laps 2] [--grid FIELD=VALUE ...]``. A measurement, not a
+test: it asserts nothing and is not part of the pytest run. About 35 minutes with 2 workers here (``--quick``: about 5).
 
 What it does: drives the main route of every world below (2 laps, camera only unless ``--odometry`` says
 otherwise, the default preset) through ``neuroslam sweep`` on a local Ray instance, one drive per worker,
 and scores each drive as ``metrics.json`` does. The worlds are the three built-ins and 40 generated ones,
-``gen:100`` to ``gen:139``: a range fixed before any result was seen, disjoint from the development worlds
-``gen:1``–``gen:3`` (and so not chosen to flatter or to embarrass the method). ``--quick`` drives the first
+seeds 100 to 139 of the generator's latest version (``--generator 1``: of version 1, on which the first
+measurements were made): a range fixed before any result was seen, disjoint from the development worlds
+``gen1:1``–``gen1:3`` (and so not chosen to flatter or to embarrass the method). ``--quick`` drives the first
 10 generated worlds and the car park, 1 lap.
 
 It writes ``OUT/results.csv`` (the sweep's rows: every number of every drive's metrics), ``OUT/worlds.md``
@@ -30,10 +31,10 @@ from pathlib import Path
 import numpy as np
 
 from neuroslam.sweep import expand_worlds, parse_grid, run_sweep
+from sim.arenas import GENERATOR_VERSION, GENERATOR_VERSIONS
 
 BUILT_IN = ["carpark", "urban", "building"]
-GENERATED = [f"gen:{seed}" for seed in range(100, 140)]  # fixed before any result was seen
-QUICK = ["carpark", *GENERATED[:10]]
+SEEDS = range(100, 140)  # fixed before any result was seen
 # ``--camera-noise``: a small camera's sensor at 8 bits (read noise 2 grey levels, photon noise 4 at white) and
 # a 20 ms shutter (2 cm of travel at 1 m/s: under a pixel of blur on the near floor)
 CAMERA_NOISE = {"read_noise": 2.0, "shot_noise": 4.0, "exposure": 0.02}
@@ -143,10 +144,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--laps", type=int, help="laps per drive (default: 2, or 1 with --quick)")
     parser.add_argument("--workers", type=int, default=2, help="drives at once (default: 2)")
     parser.add_argument("--worlds", nargs="+", help="other worlds instead of the benchmark's (gen:A-B ranges too)")
+    parser.add_argument("--generator", type=int, choices=GENERATOR_VERSIONS, default=GENERATOR_VERSION,
+                        help=f"the world generator's version (default: the latest, {GENERATOR_VERSION}; 1 gives the "
+                             "worlds measured before version 2)")
     parser.add_argument("--grid", nargs="+", default=[], metavar="FIELD=VALUE",
                         help="one configuration setting over the default preset (one value per field)")
     args = parser.parse_args(argv)
-    worlds = expand_worlds(args.worlds) if args.worlds else (QUICK if args.quick else BUILT_IN + GENERATED)
+    generated = [f"gen{args.generator}:{seed}" for seed in SEEDS]
+    worlds = expand_worlds(args.worlds) if args.worlds else (["carpark", *generated[:10]] if args.quick
+                                                             else BUILT_IN + generated)
     laps = args.laps or (1 if args.quick else 2)
     grid = parse_grid(args.grid)
     if len(grid) != 1:

@@ -852,7 +852,10 @@ def _worlds(_: argparse.Namespace) -> int:
         levels = ", ".join(f"{h:g}" for h in world.levels)
         routes = ", ".join(f"{r.name} ({r.length:.0f} m)" for r in world.routes.values())
         print(f"{name:<10} levels at {levels} m; routes: {routes}")
-    print("gen:SEED   a generated world for any integer SEED (2-3 levels)")
+    from sim.arenas import GENERATOR_VERSION
+
+    print(f"gen:SEED   a generated world for any integer SEED (generator version {GENERATOR_VERSION}: 2-4 levels, "
+          "5-12 degree ramps, blank to well-marked floors, open decks, corridors; genN:SEED for version N)")
     return 0
 
 

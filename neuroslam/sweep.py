@@ -48,17 +48,17 @@ class Drive:
 
 
 def expand_worlds(items: list[str]) -> list[str]:
-    """World names from the command line: built-in names, ``gen:SEED``, ``gen:A-B`` ranges (inclusive) and
-    MJCF paths, separated by spaces or commas."""
+    """World names from the command line: built-in names, ``gen:SEED``, ``gen:A-B`` ranges (inclusive; also
+    ``genN:A-B`` for generator version N) and MJCF paths, separated by spaces or commas."""
     worlds = []
     for item in items:
         for name in filter(None, (part.strip() for part in item.split(","))):
-            match = re.fullmatch(r"gen:(-?\d+)-(-?\d+)", name)
+            match = re.fullmatch(r"(gen\d*):(-?\d+)-(-?\d+)", name)
             if match:
-                first, last = int(match.group(1)), int(match.group(2))
+                prefix, first, last = match.group(1), int(match.group(2)), int(match.group(3))
                 if last < first:
-                    raise InvalidParameterError("--worlds", name, "a gen:A-B range needs A <= B")
-                worlds.extend(f"gen:{seed}" for seed in range(first, last + 1))
+                    raise InvalidParameterError("--worlds", name, f"a {prefix}:A-B range needs A <= B")
+                worlds.extend(f"{prefix}:{seed}" for seed in range(first, last + 1))
             else:
                 worlds.append(name)
     if not worlds:

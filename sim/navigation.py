@@ -2,7 +2,8 @@
 
 Nothing is written by hand per world. Over a grid of cells (``cell`` metres) covering the world, rays
 cast straight down from just above each floor level find every surface under each cell (floors, ramps,
-decks; a cell under a deck has one surface per level). A surface is a node when the robot fits there:
+decks; a cell under a deck has one surface per level). Geometry that collides with nothing (decals, the
+land around an open deck) is neither surface nor obstacle. A surface is a node when the robot fits there:
 no geometry within ``clearance`` metres of it horizontally, in eight directions, at 0.3 m above the
 surface (walls, pillars, parked cars), and none within ``headroom`` metres above it. Nodes of
 neighbouring cells (eight-connected) are joined when their heights differ by at most ``step_height``
@@ -27,6 +28,7 @@ from .world import World
 __all__ = ["DrivableGraph"]
 
 _NEIGHBOURS = [(1, 0), (0, 1), (1, 1), (1, -1)]  # half of the eight: each edge once
+_SOLID_GROUPS = np.array([1, 1, 1, 1, 1, 0], dtype=np.uint8)  # every geom group but 5: see DrivableGraph
 _DIRECTIONS = [(math.cos(a), math.sin(a), 0.0) for a in np.linspace(0, 2 * math.pi, 8, endpoint=False)]
 
 
@@ -53,10 +55,14 @@ class DrivableGraph:
     def __init__(self, world: World, *, cell: float = 0.5, clearance: float = 0.45, step_height: float = 0.15,
                  headroom: float = 0.9, comfort: float = 1.5):
         model = _static_model(world)
+        # geometry that collides with nothing (decals, ceilings' undersides, the land an open deck overlooks)
+        # is neither a surface to drive on nor an obstacle: the rays skip it (group 5 of this private copy)
+        solid = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+        model.geom_group[~solid] = 5
         data = mujoco.MjData(model)
         mujoco.mj_forward(model, data)
-        reach = data.geom_xpos[:, :2]
-        radius = model.geom_rbound[:, None]
+        reach = data.geom_xpos[solid, :2]
+        radius = model.geom_rbound[solid, None]
         low, high = (reach - radius).min(axis=0), (reach + radius).max(axis=0)
         xs = np.arange(low[0] + cell / 2, high[0], cell)
         ys = np.arange(low[1] + cell / 2, high[1], cell)
@@ -65,7 +71,7 @@ class DrivableGraph:
 
         def ray(start, direction) -> float:
             return mujoco.mj_ray(model, data, np.asarray(start, dtype=float), np.asarray(direction, dtype=float),
-                                 None, 1, -1, geom)
+                                 _SOLID_GROUPS, 1, -1, geom)
 
         nodes: dict[tuple[int, int], list[float]] = {}
         free_radius: dict[tuple[int, int, float], float] = {}

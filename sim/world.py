@@ -10,14 +10,16 @@ A world is an MJCF file of static geometry (no robot) plus a routes sidecar ``NA
 Each waypoint's z is the floor height there; the robot starts at the first waypoint facing the second;
 the first route is the default. Without ``levels`` the floor heights are the distinct waypoint heights.
 
-World names: a built-in name (``carpark``, ``urban``, ``building``), ``gen:SEED`` for a generated world,
-or a path to an MJCF file.
+World names: a built-in name (``carpark``, ``urban``, ``building``), ``gen:SEED`` for a generated world
+(the generator's latest version; ``gen1:SEED``, ``gen2:SEED`` name a version, so a seed's world stays the
+same when the generator changes), or a path to an MJCF file.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -171,7 +173,8 @@ def load_world(name: str | Path, *, routes: str | Path | None = None) -> World:
     """Find a world by name and read its routes.
 
     Args:
-        name: a built-in world name, ``gen:SEED`` (an integer seed), or a path to an MJCF file.
+        name: a built-in world name, ``gen:SEED`` (an integer seed; ``genN:SEED`` for generator version N),
+            or a path to an MJCF file.
         routes: a routes file to use instead of the sidecar ``NAME.routes.json``.
 
     Raises:
@@ -179,17 +182,23 @@ def load_world(name: str | Path, *, routes: str | Path | None = None) -> World:
         RouteError: the routes file is missing or malformed.
     """
     text = str(name)
-    if text.startswith("gen:"):
-        seed_text = text[4:]
+    generator = re.fullmatch(r"gen(\d*):(.*)", text)
+    if generator is not None:
+        from .arenas import GENERATOR_VERSION, GENERATOR_VERSIONS, generated
+
+        version_text, seed_text = generator.groups()
+        prefix = f"gen{version_text}:"
+        version = int(version_text) if version_text else GENERATOR_VERSION
+        if version not in GENERATOR_VERSIONS:
+            raise WorldError(f"world={text!r}: no generator version {version} "
+                             f"(versions {', '.join(map(str, GENERATOR_VERSIONS))}; gen:SEED is the latest)")
         try:
             seed = int(seed_text)
         except ValueError:
-            raise WorldError(f"world={text!r}: 'gen:' must be followed by an integer seed") from None
+            raise WorldError(f"world={text!r}: {prefix!r} must be followed by an integer seed") from None
         if seed < 0:
             raise WorldError(f"world={text!r}: the seed must be a non-negative integer")
-        from .arenas import generated
-
-        source = generated(seed)
+        source = generated(seed, version)
         if routes is not None:
             route_table, levels = _read_routes(Path(routes))
         else:

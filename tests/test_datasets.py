@@ -87,10 +87,10 @@ def test_a_recorded_drive_replayed_scores_as_the_drive_did(tmp_path):
     description carries the world, route and floor heights, so floors, level accuracy and closures judged by
     floor are scored on a replay too (ground truth read back from TUM: equal to its printed precision)."""
     dataset = tmp_path / "dataset"
-    assert main(["record", "gen:2", "--max-frames", "120", "--out", str(dataset)]) == 0
-    assert json.loads((dataset / "dataset.json").read_text()) == {"world": "gen:2", "route": "main",
+    assert main(["record", "gen1:2", "--max-frames", "120", "--out", str(dataset)]) == 0
+    assert json.loads((dataset / "dataset.json").read_text()) == {"world": "gen1:2", "route": "main",
                                                                    "levels": [0.0, 3.02]}
-    assert main(["drive", "gen:2", "--max-frames", "120", "--out", str(tmp_path / "drive")]) == 0
+    assert main(["drive", "gen1:2", "--max-frames", "120", "--out", str(tmp_path / "drive")]) == 0
     assert main(["run", str(dataset), "--groundtruth", str(dataset / "groundtruth.tum"),
                  "--out", str(tmp_path / "run")]) == 0
     drive = json.loads((tmp_path / "drive" / "metrics.json").read_text())

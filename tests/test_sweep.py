@@ -13,6 +13,7 @@ from neuroslam.sweep import expand_worlds, flatten, parse_grid
 
 def test_world_lists_expand_ranges_and_commas():
     assert expand_worlds(["carpark,gen:3-5", "my.xml"]) == ["carpark", "gen:3", "gen:4", "gen:5", "my.xml"]
+    assert expand_worlds(["gen1:7-8"]) == ["gen1:7", "gen1:8"]  # a generator version's seeds
     with pytest.raises(InvalidParameterError, match="A <= B"):
         expand_worlds(["gen:5-3"])
 

@@ -141,3 +141,77 @@ def test_visual_profiles():
     assert np.mean(np.abs(images["fast"].astype(int) - images["high"].astype(int))) > 1.0
     with pytest.raises(sim.InvalidParameterError, match="quality"):
         Simulation(world, quality="ultra")
+
+
+@pytest.mark.parametrize("seed, digest", [(0, "2b6271ce38489216"), (5, "61aa8c1daad186d3"), (101, "f2f1d391e96642e8")])
+def test_generator_version_1_stays_byte_for_byte_what_gen_seed_was(seed, digest):
+    # the digests of gen:SEED's MJCF as the generator wrote it before version 2 (commit 9df86ae): a
+    # researcher's gen1:SEED is the world their results were measured on
+    import hashlib
+
+    assert hashlib.sha256(generated(seed, 1).xml.encode()).hexdigest()[:16] == digest
+    assert sim.load_world(f"gen1:{seed}").xml == generated(seed, 1).xml
+
+
+def test_gen_seed_is_the_latest_version_and_versions_are_named():
+    from sim.arenas import GENERATOR_VERSION
+
+    assert sim.load_world("gen:7").xml == sim.load_world(f"gen{GENERATOR_VERSION}:7").xml == generated(7).xml
+    assert sim.load_world("gen1:7").xml != sim.load_world("gen2:7").xml
+    with pytest.raises(sim.WorldError, match="no generator version 9") as error:
+        sim.load_world("gen9:1")
+    assert "'gen9:1'" in str(error.value)
+    with pytest.raises(sim.WorldError, match="'gen1:' must be followed by an integer seed"):
+        sim.load_world("gen1:x")
+    with pytest.raises(ValueError, match="version=3"):
+        generated(1, 3)
+
+
+def _geoms(xml: str) -> list[ET.Element]:
+    return list(ET.fromstring(xml).iter("geom"))
+
+
+def test_generator_version_2_draws_the_documented_distribution():
+    # over 120 seeds every documented kind appears (sim.arenas.storeys._generated_2): 2-4 levels, 5-12 degree
+    # ramps, the four floor styles, roofs, parapets, open decks with land to the horizon and partial decks,
+    # corridors (rooms) and halls, dim and bright light
+    counts, slopes, styles, tops, brightness, corridors = set(), [], set(), set(), [], set()
+    for seed in range(120):
+        source = generated(seed, 2)
+        root = ET.fromstring(source.xml)
+        counts.add(len(source.routes["levels"]))
+        slopes += _ramp_slopes(source.xml)
+        for texture in root.iter("texture"):
+            if texture.get("name", "").startswith(("floor_", "ramp_")) and texture.get("width") == "64":
+                mark, builtin = texture.get("mark"), texture.get("builtin")
+                if texture.get("rgb1") == texture.get("rgb2") and mark == "none":
+                    styles.add("blank")
+                elif mark == "edge":
+                    styles.add("large-tiled")
+                elif float(texture.get("random", 0)) >= 0.06 and builtin in ("checker", "flat"):
+                    styles.add("well-marked")
+                elif builtin in ("checker", "gradient"):
+                    styles.add("low-contrast")
+        names = {geom.get("name", "") for geom in root.iter("geom")}
+        land = any(name.startswith("ground") for name in names)
+        deck = any(name.startswith("deck") for name in names)
+        walls = [geom for geom in root.iter("geom") if geom.get("name", "").startswith("wall")]
+        roof = any(float(g.get("pos").split()[2]) > source.routes["levels"][-1] + 3 for g in root.iter("geom")
+                   if g.get("name", "").startswith("floor"))
+        tops.add("deck" if deck else "open" if land else "roof" if roof else "parapet")
+        assert not deck or land  # a partial deck stands over an open top level
+        # room walls stand inside the ring lanes (the ramps' walls lie outside them): a corridor level; an
+        # obstacle: a hall
+        lanes = np.array(source.routes["routes"]["main"]["waypoints"])
+        inner_x, inner_y = np.abs(lanes[:, 0]).max() - 5.5, np.abs(lanes[:, 1]).max() - 0.5
+        corridors.update(
+            {"corridor" for g in walls if abs(float(g.get("pos").split()[0])) < inner_x
+             and abs(float(g.get("pos").split()[1])) < inner_y}
+            | {"hall" for name in names if name.startswith("obstacle")})
+        brightness.append(float(root.find("visual/headlight").get("ambient").split()[0]) / 0.35)
+    assert counts == {2, 3, 4}
+    assert 5.0 <= min(slopes) < 6.0 and 11.0 < max(slopes) <= 12.0
+    assert styles == {"blank", "low-contrast", "large-tiled", "well-marked"}
+    assert tops == {"roof", "parapet", "open", "deck"}
+    assert min(brightness) < 0.55 and max(brightness) > 1.2
+    assert corridors == {"corridor", "hall"}

@@ -11,12 +11,12 @@ from collections.abc import Callable
 from pathlib import Path
 
 from .builder import Rect, WorldBuilder, subtract_rectangles
-from .storeys import StoreyLayout, WorldSource, building, carpark, generated
+from .storeys import GENERATOR_VERSION, GENERATOR_VERSIONS, StoreyLayout, WorldSource, building, carpark, generated
 from .urban import urban
 
 __all__ = [
-    "BUILTIN_BUILDERS", "Rect", "StoreyLayout", "WorldBuilder", "WorldSource", "building", "carpark",
-    "generated", "routes_json", "subtract_rectangles", "urban", "write_world",
+    "BUILTIN_BUILDERS", "GENERATOR_VERSION", "GENERATOR_VERSIONS", "Rect", "StoreyLayout", "WorldBuilder",
+    "WorldSource", "building", "carpark", "generated", "routes_json", "subtract_rectangles", "urban", "write_world",
 ]
 
 BUILTIN_BUILDERS: dict[str, Callable[[], WorldSource]] = {"carpark": carpark, "urban": urban, "building": building}

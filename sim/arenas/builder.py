@@ -16,7 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Rect", "WorldBuilder", "subtract_rectangles"]
+__all__ = ["FLOOR_STYLES", "Rect", "WorldBuilder", "subtract_rectangles"]
+
+FLOOR_STYLES = ("blank", "low-contrast", "large-tiled", "well-marked")
 
 # Hue (0..1), saturation and value ranges per kind of surface: concrete is grey, cars are vivid...
 _PALETTES: dict[str, tuple[tuple[float, float], tuple[float, float], tuple[float, float]]] = {
@@ -29,6 +31,7 @@ _PALETTES: dict[str, tuple[tuple[float, float], tuple[float, float], tuple[float
     "facade": ((0.0, 1.0), (0.1, 0.5), (0.35, 0.8)),
     "ramp": ((0.0, 1.0), (0.05, 0.3), (0.4, 0.65)),
     "marking": ((0.12, 0.17), (0.0, 0.9), (0.85, 1.0)),
+    "land": ((0.2, 0.4), (0.2, 0.5), (0.3, 0.55)),
 }
 
 
@@ -164,6 +167,58 @@ class WorldBuilder:
             self.asset, "material", name=name, texture=name, texuniform="true",
             texrepeat=_fmt([1 / tile, 1 / tile]), specular="0.1", shininess="0.1",
         )
+        return name
+
+    def floor_material(self, style: str, *, kind: str = "floor") -> str:
+        """A texture and material for a floor or ramp of one of the generator's floor ``style``s; returns its name.
+
+        - ``blank``: one flat colour, no marks (nothing for a floor alignment to hold on to);
+        - ``low-contrast``: a checker or gradient whose two colours differ by 3–10 %, faint random marks;
+        - ``large-tiled``: one colour with thin lines along the edges of 2.5–4 m tiles (sparse lines);
+        - ``well-marked``: a contrasting checker or speckle with dense random marks, 0.6–1.5 m tiles.
+        """
+        if style not in FLOOR_STYLES:
+            raise ValueError(f"style={style!r}: unknown floor style, expected one of {FLOOR_STYLES}")
+        name = self._name(f"{kind}_")
+        base = self._colour(kind)
+        attributes = {"name": name, "type": "2d", "rgb1": _fmt(base), "width": "64", "height": "64"}
+        if style == "blank":
+            attributes.update(builtin="flat", rgb2=_fmt(base), mark="none")
+            tile = 1.0
+        elif style == "low-contrast":
+            second = np.clip(base * self.rng.uniform(0.90, 0.97), 0, 1)
+            marks = np.clip(base * self.rng.uniform(1.04, 1.10), 0, 1)
+            attributes.update(builtin=str(self.rng.choice(["checker", "gradient"])), rgb2=_fmt(second),
+                              mark="random", markrgb=_fmt(marks), random=f"{self.rng.uniform(0.02, 0.08):.3f}")
+            tile = float(self.rng.uniform(0.8, 2.0))
+        elif style == "large-tiled":
+            lines = np.clip(1.0 - base + self.rng.uniform(-0.2, 0.2, 3), 0, 1)
+            attributes.update(builtin="flat", rgb2=_fmt(base), mark="edge", markrgb=_fmt(lines))
+            tile = float(self.rng.uniform(2.5, 4.0))
+        else:  # well-marked
+            second = np.clip(base * self.rng.uniform(0.55, 0.8), 0, 1)
+            marks = np.clip(1.0 - base + self.rng.uniform(-0.2, 0.2, 3), 0, 1)
+            attributes.update(builtin=str(self.rng.choice(["checker", "flat"])), rgb2=_fmt(second), mark="random",
+                              markrgb=_fmt(marks), random=f"{self.rng.uniform(0.06, 0.15):.3f}")
+            tile = float(self.rng.uniform(0.6, 1.5))
+        ET.SubElement(self.asset, "texture", attributes)
+        ET.SubElement(self.asset, "material", name=name, texture=name, texuniform="true",
+                      texrepeat=_fmt([1 / tile, 1 / tile]), specular="0.1", shininess="0.1")
+        return name
+
+    def lighting(self, brightness: float) -> None:
+        """Scale the headlight (ambient 0.35, diffuse 0.45 at ``brightness`` 1) for dim or bright worlds."""
+        headlight = self.root.find("visual/headlight")
+        headlight.set("ambient", _fmt([0.35 * brightness] * 3))
+        headlight.set("diffuse", _fmt([0.45 * brightness] * 3))
+
+    def ground(self, half_size: float, *, material: str) -> str:
+        """A visual ground plane just below height 0 reaching ``half_size`` metres out (the land an open deck
+        overlooks, up to the horizon); it does not collide. Returns its name."""
+        name = self._name("ground")
+        ET.SubElement(self.worldbody, "geom", name=name, type="plane", pos="0 0 -0.05",
+                      size=_fmt([half_size, half_size, 1.0]), material=material, contype="0", conaffinity="0",
+                      group="1")
         return name
 
     # geometry -----------------------------------------------------------------------------------------

@@ -13,13 +13,15 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .builder import Rect, WorldBuilder, subtract_rectangles
+from .builder import FLOOR_STYLES, Rect, WorldBuilder, subtract_rectangles
 
-__all__ = ["StoreyLayout", "WorldSource", "build_storeys", "building", "carpark", "generated"]
+__all__ = ["GENERATOR_VERSION", "GENERATOR_VERSIONS", "StoreyLayout", "WorldSource", "build_storeys", "building",
+           "carpark", "generated"]
 
 RAMP_WIDTH = 4.0  # m
 RAMP_END_MARGIN = 0.4  # m: waypoints just beyond a ramp's ends, on flat floor
@@ -133,11 +135,14 @@ def main_route(layout: StoreyLayout) -> list[list[float]]:
     return cleaned
 
 
-def build_storeys(builder: WorldBuilder, layout: StoreyLayout) -> list[Rect]:
+def build_storeys(builder: WorldBuilder, layout: StoreyLayout, *, floors: Sequence[str] | None = None,
+                  ramps: Sequence[str] | None = None, parapet: float = 1.1, light: float = 1.0) -> list[Rect]:
     """Floors, ramps, outer walls and lights of a stacked world; returns the open core area of the rings.
 
-    Level ``k`` is enclosed by outer walls up to the next floor; the top level gets a roof (or a 1.1 m
-    parapet when ``layout.roof`` is False).
+    Level ``k`` is enclosed by outer walls up to the next floor; the top level gets a roof (or a ``parapet``
+    metres high when ``layout.roof`` is False: 1.1 m hides the horizon from the robot's camera, 0.2 m, a curb,
+    shows it). ``floors`` and ``ramps`` name each level's and each ramp's material (drawn at random when
+    omitted); ``light`` scales the directional lights' brightness.
     """
     layout.validate()
     w, d = layout.width / 2, layout.depth / 2
@@ -145,7 +150,7 @@ def build_storeys(builder: WorldBuilder, layout: StoreyLayout) -> list[Rect]:
     top = len(layout.levels) - 1
     for k, height in enumerate(layout.levels):
         holes = [layout.ramp_area(k - 1)] if k > 0 else []
-        floor_material = builder.material("floor")
+        floor_material = floors[k] if floors is not None else builder.material("floor")
         builder.slab(footprint, height, thickness=SLAB_THICKNESS, material=floor_material, holes=holes)
         if k > 0:  # the slab's underside seen from the level below, drawn as its own ceiling
             ceiling = builder.material("ceiling")
@@ -154,8 +159,9 @@ def build_storeys(builder: WorldBuilder, layout: StoreyLayout) -> list[Rect]:
                             [(r.x1 - r.x0) / 2, (r.y1 - r.y0) / 2, 0.005], material=ceiling, collide=False,
                             kind="ceiling")
         if k < top:
-            builder.ramp(layout.ramp_area(k), "+y" if k % 2 == 0 else "-y", height, layout.levels[k + 1])
-        upper = layout.levels[k + 1] if k < top else height + (3.0 if layout.roof else 1.1)
+            builder.ramp(layout.ramp_area(k), "+y" if k % 2 == 0 else "-y", height, layout.levels[k + 1],
+                         material=ramps[k] if ramps is not None else None)
+        upper = layout.levels[k + 1] if k < top else height + (3.0 if layout.roof else parapet)
         for start, end in (((-w, -d), (w, -d)), ((w, -d), (w, d)), ((w, d), (-w, d)), ((-w, d), (-w, -d))):
             builder.wall(start, end, height, upper, material=builder.material("wall"))
     if layout.roof:
@@ -163,16 +169,18 @@ def build_storeys(builder: WorldBuilder, layout: StoreyLayout) -> list[Rect]:
         builder.slab(footprint, roof_height + SLAB_THICKNESS, thickness=SLAB_THICKNESS,
                      material=builder.material("ceiling"))
     for x in (-w / 2, w / 2):
-        builder.light([x, 0, layout.levels[-1] + 20], [0.2, 0.1, -1], diffuse=0.35)
+        builder.light([x, 0, layout.levels[-1] + 20], [0.2, 0.1, -1], diffuse=0.35 * light)
     lane = _lanes(layout)
     margin = 1.8
     return [Rect(lane["west"] + margin, lane["east"] - margin, lane["south"] + margin, lane["north"] - margin)]
 
 
-def _wall_panels(builder: WorldBuilder, layout: StoreyLayout, spacing: float = 5.0) -> None:
-    """Distinct coloured panels on the inside of the outer walls: landmarks for place recognition."""
+def _wall_panels(builder: WorldBuilder, layout: StoreyLayout, spacing: float = 5.0,
+                 heights: Sequence[float] | None = None) -> None:
+    """Distinct coloured panels on the inside of the outer walls of every level (or of the floors at
+    ``heights``): landmarks for place recognition."""
     w, d = layout.width / 2, layout.depth / 2
-    for height in layout.levels:
+    for height in layout.levels if heights is None else heights:
         for x in np.arange(-w + 3, w - 2, spacing):
             for y, sign in ((-d, 1), (d, -1)):
                 builder.box([x, y + sign * 0.13, height + 1.4], [0.7, 0.03, 0.45], material=builder.material("sign"),
@@ -291,11 +299,28 @@ def building(seed: int = 2) -> WorldSource:
         "main": {"waypoints": main_route(layout), "loop": True}}})
 
 
-def generated(seed: int) -> WorldSource:
-    """A random stacked world for tests and benchmarks: 2–3 levels, random size, obstacles and textures.
+GENERATOR_VERSION = 2  # what ``gen:SEED`` draws from; ``genN:SEED`` names version N
+GENERATOR_VERSIONS = (1, 2)
 
-    Different for every seed and identical for the same seed.
+
+def generated(seed: int, version: int = GENERATOR_VERSION) -> WorldSource:
+    """A random stacked world for tests and benchmarks, different for every seed and identical for the same
+    seed and generator ``version`` (see :func:`_generated_2` for the distribution it draws from, and the
+    changelog for what each version changed).
+
+    Raises:
+        ValueError: a negative seed or an unknown version.
     """
+    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or seed < 0:
+        raise ValueError(f"seed={seed!r}: must be a non-negative integer")
+    if version not in GENERATOR_VERSIONS:
+        raise ValueError(f"version={version!r}: the generator's versions are {GENERATOR_VERSIONS}")
+    return _generated_1(int(seed)) if version == 1 else _generated_2(int(seed))
+
+
+def _generated_1(seed: int) -> WorldSource:
+    """Generator version 1 (``gen1:SEED``; ``gen:SEED`` until version 2): 2–3 levels, 8–11.5 degree ramps, a
+    random footprint, random obstacles, and every surface's texture drawn by :meth:`WorldBuilder.material`."""
     rng = np.random.default_rng([seed, 0x5EED])
     n_levels = int(rng.integers(2, 4))
     heights = np.cumsum([0.0, *rng.uniform(2.6, 3.4, n_levels - 1)])
@@ -307,7 +332,7 @@ def generated(seed: int) -> WorldSource:
         levels=tuple(float(round(h, 2)) for h in heights),
         slope=slope, roof=bool(rng.uniform() < 0.5),
     )
-    name = f"gen:{seed}"
+    name = f"gen:{seed}"  # the name it had as the only version: its MJCF stays byte for byte the same
     builder = WorldBuilder(name, int(rng.integers(2**31)))
     (core,) = build_storeys(builder, layout)
     _wall_panels(builder, layout, spacing=float(rng.uniform(3.5, 7.0)))
@@ -324,3 +349,100 @@ def generated(seed: int) -> WorldSource:
                         yaw=float(rng.uniform(0, math.pi)), kind="obstacle")
     return WorldSource(name, builder.to_xml(), {"levels": list(layout.levels), "routes": {
         "main": {"waypoints": main_route(layout), "loop": True}}})
+
+
+# generator version 2's distribution: (choices, probabilities) or (low, high) of a uniform draw
+LEVEL_COUNTS = ((2, 3, 4), (0.4, 0.35, 0.25))
+SLOPES = (5.0, 12.0)  # degrees
+TOPS = (("roof", "parapet", "open", "deck"), (0.3, 0.2, 0.25, 0.25))
+BRIGHTNESS = (0.45, 1.3)  # times the built-in worlds' lights
+CORRIDOR_SHARE = 0.35  # of levels: a block of rooms with a corridor around it instead of an open hall
+
+
+def _generated_2(seed: int) -> WorldSource:
+    """Generator version 2 (``gen:SEED``, ``gen2:SEED``): the distribution the generalization benchmark draws.
+
+    - **Levels**: 2, 3 or 4 (probabilities 0.4, 0.35, 0.25), 2.6–3.4 m apart; ramps of 5–12 degrees
+      (uniform), so the footprint's depth (ramp plus turning space, 9–17 m more) runs from about 22 to 56 m,
+      its width 30–46 m.
+    - **Floors**: every level's floor and every ramp draws one of :data:`~sim.arenas.builder.FLOOR_STYLES`
+      with equal chances: blank (one flat colour), low-contrast, large-tiled (thin lines 2.5–4 m apart) and
+      well-marked; half the worlds paint dashed lane markings on every level on top.
+    - **Top level**: a roof (0.3), a 1.1 m parapet that hides the horizon (0.2), an open deck behind a 0.2 m
+      curb with the land and the horizon in view (0.25), or such a deck with a second deck 2.6–3.2 m over a
+      third to two thirds of it, on pillars (0.25).
+    - **Halls and corridors**: each level is an open hall with 4–9 obstacles (0.65), or a block of 3–5 rooms
+      whose walls stand 1 m beside the ring lane, a narrow corridor (0.35).
+    - **Light**: the headlight and the sun scaled by 0.45–1.3, from dim to bright.
+    - Walls, ceilings and obstacles draw their textures as version 1 does (:meth:`WorldBuilder.material`),
+      coloured panels on the outer walls every 3.5–7 m.
+    """
+    rng = np.random.default_rng([seed, 0x5EED, 2])
+    n_levels = int(rng.choice(LEVEL_COUNTS[0], p=LEVEL_COUNTS[1]))
+    heights = np.cumsum([0.0, *rng.uniform(2.6, 3.4, n_levels - 1)])
+    slope = math.radians(float(rng.uniform(*SLOPES)))
+    longest = max(np.diff(heights)) / math.tan(slope)
+    top_kind = str(rng.choice(TOPS[0], p=TOPS[1]))
+    layout = StoreyLayout(
+        width=float(round(rng.uniform(30.0, 46.0), 1)),
+        depth=float(round(longest + 9.0 + rng.uniform(0.0, 8.0), 1)),
+        levels=tuple(float(round(h, 2)) for h in heights),
+        slope=slope, roof=top_kind == "roof",
+    )
+    floor_styles = [str(rng.choice(FLOOR_STYLES)) for _ in layout.levels]
+    ramp_styles = [str(rng.choice(FLOOR_STYLES)) for _ in layout.levels[1:]]
+    corridors = [bool(rng.uniform() < CORRIDOR_SHARE) for _ in layout.levels]
+    brightness = float(rng.uniform(*BRIGHTNESS))
+    markings = bool(rng.uniform() < 0.5)
+    name = f"gen2:{seed}"
+    builder = WorldBuilder(name, int(rng.integers(2**31)))
+    builder.lighting(brightness)
+    floors = [builder.floor_material(style) for style in floor_styles]
+    ramps = [builder.floor_material(style, kind="ramp") for style in ramp_styles]
+    open_top = top_kind in ("open", "deck")
+    (core,) = build_storeys(builder, layout, floors=floors, ramps=ramps, parapet=0.2 if open_top else 1.1,
+                            light=brightness)
+    if open_top:
+        builder.ground(200.0, material=builder.material("land", scale=4.0))
+    _wall_panels(builder, layout, spacing=float(builder.rng.uniform(3.5, 7.0)),  # none in the air over a curb
+                 heights=layout.levels[:-1] if open_top else layout.levels)
+    if markings:
+        _lane_markings(builder, layout)
+    lane = _lanes(layout)
+    for k, height in enumerate(layout.levels):
+        if corridors[k]:
+            upper = layout.levels[k + 1] if k + 1 < len(layout.levels) else height + 3.0
+            block = Rect(lane["west"] + 1.0, lane["east"] - 1.0, lane["south"] + 1.0, lane["north"] - 1.0)
+            _rooms(builder, block, height, upper - height - SLAB_THICKNESS, rooms=int(builder.rng.integers(3, 6)))
+            continue
+        for _ in range(int(builder.rng.integers(4, 10))):
+            sx, sy = builder.rng.uniform(0.3, 1.5, 2)
+            reach = math.hypot(sx, sy)  # any yaw keeps the obstacle inside the core
+            x = builder.rng.uniform(core.x0 + reach, core.x1 - reach)
+            y = builder.rng.uniform(core.y0 + reach, core.y1 - reach)
+            tall = builder.rng.uniform(0.4, 2.4)
+            builder.box([x, y, height + tall / 2], [sx, sy, tall / 2], material=builder.material("pillar"),
+                        yaw=float(builder.rng.uniform(0, math.pi)), kind="obstacle")
+    if top_kind == "deck":
+        _partial_deck(builder, layout, float(builder.rng.uniform(1 / 3, 2 / 3)), float(builder.rng.uniform(2.6, 3.2)))
+    return WorldSource(name, builder.to_xml(), {"levels": list(layout.levels), "routes": {
+        "main": {"waypoints": main_route(layout), "loop": True}}})
+
+
+def _partial_deck(builder: WorldBuilder, layout: StoreyLayout, share: float, clearance: float) -> None:
+    """A deck ``clearance`` metres over the west ``share`` of the open top level, on a row of pillars along
+    its east edge and the outer walls: part of the top level under a ceiling, the rest under the sky."""
+    w, d = layout.width / 2, layout.depth / 2
+    top = layout.levels[-1]
+    edge = -w + share * layout.width
+    underside = top + clearance
+    builder.slab(Rect(-w, edge, -d, d), underside + SLAB_THICKNESS, thickness=SLAB_THICKNESS,
+                 material=builder.material("floor"), kind="deck")
+    builder.box([(edge - w) / 2, 0.0, underside - 0.005], [(edge + w) / 2, d, 0.005],
+                material=builder.material("ceiling"), collide=False, kind="ceiling")
+    lane = _lanes(layout)
+    pillar = builder.material("pillar")
+    inner = np.linspace(lane["south"] + 2.0, lane["north"] - 2.0, max(2, int(layout.depth // 8)))
+    for y in (-d + 0.4, *inner, d - 0.4):  # beside the lanes, never on them (they keep 2 m from a pillar)
+        builder.box([edge - 0.2, float(y), top + clearance / 2], [0.2, 0.2, clearance / 2], material=pillar,
+                    kind="pillar")

@@ -59,8 +59,8 @@ def row(label: str, frames: str, ms: dict[str, float]) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--frames", type=int, default=600, help="frames timed per world (default: 600)")
-    parser.add_argument("--worlds", nargs="+", default=["carpark", "urban", "building", "gen:1"],
-                        help="built-in worlds, gen:SEED or MJCF paths (default: carpark urban building gen:1)")
+    parser.add_argument("--worlds", nargs="+", default=["carpark", "urban", "building", "gen1:1"],
+                        help="built-in worlds, gen:SEED or MJCF paths (default: carpark urban building gen1:1)")
     parser.add_argument("--preset", default="sim", help="NeuroSLAM parameter preset (default: sim)")
     args = parser.parse_args()
     if args.frames < 1:

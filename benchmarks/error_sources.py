@@ -1,6 +1,6 @@
 """Where a drive's error comes from: the visual odometry's bias per level, and each loop closure's own error.
 
-Run: ``python benchmarks/error_sources.py [--worlds building gen:3 ...] [--laps 2] [--seed S] [--noise 0.5]
+Run: ``python benchmarks/error_sources.py [--worlds building gen1:3 ...] [--laps 2] [--seed S] [--noise 0.5]
 [--preset sim] [--config FILE] [--max-frames N]``. A measurement, not a test: it asserts nothing and is not
 part of the pytest run.
 
@@ -76,7 +76,7 @@ def closure_errors(closures: list[tuple[int, int, np.ndarray]], creation_frames:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--worlds", nargs="+", default=["building", "gen:3"], help="worlds to drive")
+    parser.add_argument("--worlds", nargs="+", default=["building", "gen1:3"], help="worlds to drive")
     parser.add_argument("--laps", type=int, default=2)
     parser.add_argument("--seed", type=int, default=None, help="add seeded noise to the frames (default: none)")
     parser.add_argument("--noise", type=float, default=0.5, help="uniform noise amplitude, grey levels of 255")

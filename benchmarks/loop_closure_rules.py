@@ -1,6 +1,6 @@
 """Loop-closure precision and recall of the two rules, on the testbed's worlds (camera only, 2 laps).
 
-Run: ``python benchmarks/loop_closure_rules.py [--worlds carpark urban building gen:1 gen:2 gen:3]``
+Run: ``python benchmarks/loop_closure_rules.py [--worlds carpark urban building gen1:1 gen1:2 gen1:3]``
 (about 1.5 minutes a world and rule). Rules: ``code`` (the NeuroSLAM paper: re-entering any experience
 whose conjunctive code matches closes a loop, eq. 22); ``paper`` (the grid-network paper's rule, more than
 6 of the last 10 frames matched consistently, made geometric: ``neuroslam.loop_closure`` with
@@ -84,7 +84,7 @@ def drive(world: str, rule: str) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--worlds", nargs="+", default=["carpark", "urban", "building", "gen:1", "gen:2", "gen:3"])
+    parser.add_argument("--worlds", nargs="+", default=["carpark", "urban", "building", "gen1:1", "gen1:2", "gen1:3"])
     parser.add_argument("--rules", nargs="+", choices=["code", "paper", "confirmed"],
                         default=["code", "paper", "confirmed"])
     args = parser.parse_args()

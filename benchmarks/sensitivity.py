@@ -77,7 +77,7 @@ def score(config: Config, world, images: list[np.ndarray], times: np.ndarray, po
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--worlds", nargs="+", default=["carpark", "urban", "building", "gen:1", "gen:2", "gen:3"],
+    parser.add_argument("--worlds", nargs="+", default=["carpark", "urban", "building", "gen1:1", "gen1:2", "gen1:3"],
                         help="worlds to drive (default: the README's accuracy table)")
     parser.add_argument("--seeds", type=int, default=3, help="noisy runs per world besides the recorded one")
     parser.add_argument("--noise", type=float, default=0.5, help="uniform noise amplitude, grey levels of 255")

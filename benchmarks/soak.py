@@ -15,7 +15,7 @@ What it does:
    the one a route length further on, so the replay's jump from the last frame to the first is at most about
    one frame's motion; the printed "closure gap" is that jump against the true poses. An open route cannot
    close; it is replayed whole and the gap (a teleport back to the start) is printed.
-   ``carpark`` rather than ``gen:2``: a generated world is not shorter (gen:2's main route is 293 m, carpark's
+   ``carpark`` rather than ``gen1:2``: a generated world is not shorter (gen1:2's main route is 293 m, carpark's
    279 m) and recording either takes only some 10-15 s against the minutes of the soak itself.
 2. Feeds ``NeuroSLAM.step(image, timestamp)`` (preset ``sim``, camera only: visual odometry, no external
    odometry, as ``neuroslam run`` calls it) with the lap replayed up to ``--frames`` frames, timestamps

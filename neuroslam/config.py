@@ -23,7 +23,7 @@ How the ``sim`` defaults were chosen (two laps of the testbed's car park, measur
 - visual odometry: speed and yaw from the ground plane (no gains to fit), the yaw solved again on the
   near floor where it has texture (``near_floor_row = 0.5``: walls beside the path bias the far rows);
   the height pipeline's gains by the least height error over the car park (``neuroslam calibrate``).
-- experience map (two laps of every built-in world and gen:1–3, one setting for all): loops close only
+- experience map (two laps of every built-in world and gen1:1–3, one setting for all): loops close only
   where a run of views confirms the place (``loop_closure = "confirmed"``: 16 of the last 20 metres'
   views at old experiences laid out as the odometry says, within 1 m, heights within 1 m plus 0.3 m per
   metre; views seen along more than 3 m are no evidence), and the map is solved by least squares. With

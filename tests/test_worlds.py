@@ -165,6 +165,9 @@ def test_gen_seed_is_the_latest_version_and_versions_are_named():
         sim.load_world("gen1:x")
     with pytest.raises(ValueError, match="version=3"):
         generated(1, 3)
+    for seed in (-1, 1.5, True):
+        with pytest.raises(ValueError, match=f"seed={seed!r}"):
+            generated(seed)
 
 
 def _geoms(xml: str) -> list[ET.Element]:

@@ -59,10 +59,11 @@ def test_worlds_have_several_levels_joined_by_gentle_ramps(name):
     assert len(world.levels) >= 2
     assert len(slopes) >= len(world.levels) - 1
     assert all(0 < s <= 12.0 for s in slopes), slopes
-    # every route starts on the ground floor; the main route's waypoints touch every level (others may
-    # stay on one: the car park's ground-floor loops for multisession experiments)
+    # every route starts on a floor, the main route on the ground floor; its waypoints touch every level
+    # (others may stay on one: the car park's ground-floor loops for multisession experiments)
     for route in world.routes.values():
-        assert route.waypoints[0, 2] == world.levels[0]
+        assert route.waypoints[0, 2] in world.levels
+    assert world.routes["main"].waypoints[0, 2] == world.levels[0]
     main = world.routes["main"]
     assert set(np.unique(world.level_of(main.waypoints[:, 2]))) == set(range(len(world.levels)))
 

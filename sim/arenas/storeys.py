@@ -376,6 +376,8 @@ def _generated_2(seed: int) -> WorldSource:
     - **Light**: the headlight and the sun scaled by 0.45–1.3, from dim to bright.
     - Walls, ceilings and obstacles draw their textures as version 1 does (:meth:`WorldBuilder.material`),
       coloured panels on the outer walls every 3.5–7 m.
+    - **Routes**: ``main`` (see :func:`main_route`), and ``upper``, the same loop begun where it first
+      reaches level 1, for a second session that starts on another level than the first.
     """
     rng = np.random.default_rng([seed, 0x5EED, 2])
     n_levels = int(rng.choice(LEVEL_COUNTS[0], p=LEVEL_COUNTS[1]))
@@ -425,8 +427,12 @@ def _generated_2(seed: int) -> WorldSource:
                         yaw=float(builder.rng.uniform(0, math.pi)), kind="obstacle")
     if top_kind == "deck":
         _partial_deck(builder, layout, float(builder.rng.uniform(1 / 3, 2 / 3)), float(builder.rng.uniform(2.6, 3.2)))
+    main = main_route(layout)
+    # the same loop begun on the first level: a second session that starts where the first never began
+    first = next(k for k, point in enumerate(main) if point[2] == layout.levels[1])
     return WorldSource(name, builder.to_xml(), {"levels": list(layout.levels), "routes": {
-        "main": {"waypoints": main_route(layout), "loop": True}}})
+        "main": {"waypoints": main, "loop": True},
+        "upper": {"waypoints": main[first:] + main[:first], "loop": True}}})
 
 
 def _partial_deck(builder: WorldBuilder, layout: StoreyLayout, share: float, clearance: float) -> None:

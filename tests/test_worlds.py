@@ -185,17 +185,16 @@ def test_generator_version_2_draws_the_documented_distribution():
         root = ET.fromstring(source.xml)
         counts.add(len(source.routes["levels"]))
         slopes += _ramp_slopes(source.xml)
-        for texture in root.iter("texture"):
-            if texture.get("name", "").startswith(("floor_", "ramp_")) and texture.get("width") == "64":
+        for texture in root.iter("texture"):  # WorldBuilder.floor_material names its textures KIND_STYLE_N
+            kind, _, rest = texture.get("name", "").partition("_")
+            style = rest.rpartition("_")[0]
+            if kind in ("floor", "ramp") and style:
+                styles.add(style)
                 mark, builtin = texture.get("mark"), texture.get("builtin")
-                if texture.get("rgb1") == texture.get("rgb2") and mark == "none":
-                    styles.add("blank")
-                elif mark == "edge":
-                    styles.add("large-tiled")
-                elif float(texture.get("random", 0)) >= 0.06 and builtin in ("checker", "flat"):
-                    styles.add("well-marked")
-                elif builtin in ("checker", "gradient"):
-                    styles.add("low-contrast")
+                assert {"blank": builtin == "flat" and mark == "none" and texture.get("rgb1") == texture.get("rgb2"),
+                        "low-contrast": builtin in ("checker", "gradient") and mark == "random",
+                        "large-tiled": builtin == "flat" and mark == "edge",
+                        "well-marked": builtin == "checker" and mark == "random"}[style], texture.attrib
         names = {geom.get("name", "") for geom in root.iter("geom")}
         land = any(name.startswith("ground") for name in names)
         deck = any(name.startswith("deck") for name in names)

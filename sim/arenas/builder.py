@@ -175,11 +175,12 @@ class WorldBuilder:
         - ``blank``: one flat colour, no marks (nothing for a floor alignment to hold on to);
         - ``low-contrast``: a checker or gradient whose two colours differ by 3–10 %, faint random marks;
         - ``large-tiled``: one colour with thin lines along the edges of 2.5–4 m tiles (sparse lines);
-        - ``well-marked``: a contrasting checker or speckle with dense random marks, 0.6–1.5 m tiles.
+        - ``well-marked``: a contrasting checker of 0.6–1.5 m tiles (squares 0.3–0.75 m) with dense random dots
+          of 2–5 cm.
         """
         if style not in FLOOR_STYLES:
             raise ValueError(f"style={style!r}: unknown floor style, expected one of {FLOOR_STYLES}")
-        name = self._name(f"{kind}_")
+        name = self._name(f"{kind}_{style}_")  # e.g. floor_large-tiled_0: the style is in the MJCF
         base = self._colour(kind)
         attributes = {"name": name, "type": "2d", "rgb1": _fmt(base), "width": "64", "height": "64"}
         if style == "blank":
@@ -195,11 +196,11 @@ class WorldBuilder:
             lines = np.clip(1.0 - base + self.rng.uniform(-0.2, 0.2, 3), 0, 1)
             attributes.update(builtin="flat", rgb2=_fmt(base), mark="edge", markrgb=_fmt(lines))
             tile = float(self.rng.uniform(2.5, 4.0))
-        else:  # well-marked
+        else:  # well-marked: squares of a third to three quarters of a metre, and dots a few centimetres wide
             second = np.clip(base * self.rng.uniform(0.55, 0.8), 0, 1)
             marks = np.clip(1.0 - base + self.rng.uniform(-0.2, 0.2, 3), 0, 1)
-            attributes.update(builtin=str(self.rng.choice(["checker", "flat"])), rgb2=_fmt(second), mark="random",
-                              markrgb=_fmt(marks), random=f"{self.rng.uniform(0.06, 0.15):.3f}")
+            attributes.update(builtin="checker", rgb2=_fmt(second), mark="random", markrgb=_fmt(marks),
+                              random=f"{self.rng.uniform(0.06, 0.15):.3f}", width="32", height="32")
             tile = float(self.rng.uniform(0.6, 1.5))
         ET.SubElement(self.asset, "texture", attributes)
         ET.SubElement(self.asset, "material", name=name, texture=name, texuniform="true",

@@ -5,8 +5,12 @@ the given heights, ramps alternating between the east side (rising +y) and the w
 and a ring lane on every level. The main route climbs every ramp with a ring on each level, comes back
 down, drives the ring of the ground level and returns to its start, so lower-level places are revisited
 after the upper ones (on the way down and on the next lap), as in the NeuroSLAM paper's datasets.
-Flavours add what makes each place look like
-itself: pillars, parked cars and lane markings; rooms and doorways; random obstacles.
+Flavours add what makes each place look like itself: pillars, parked cars and lane markings; rooms and
+doorways; random obstacles.
+
+The seeded generator is versioned (:data:`GENERATOR_VERSION`; ``gen:SEED`` is the latest, ``genN:SEED``
+version N), so a seed's world never changes under a researcher: version 1 (:func:`_generated_1`) is kept
+byte for byte, version 2 (:func:`_generated_2`) documents the distribution it draws from.
 """
 
 from __future__ import annotations

@@ -190,7 +190,8 @@ class VisualOdometryConfig:
             nothing. 1 degree: the two agree within 0.4–0.7 degrees on 99 % of frames on floors where both
             work (car park, urban, the building), so this is about five times their spread and rejects only
             gross failures (on a sparsely marked ramp, single frames read 3–13 degrees of turn while driving
-            straight).
+            straight). The ceiling's solution (the distance over a blank floor) is refused by the same bound
+            against the yaw taken.
     """
 
     rotation_region: Region = Region(0.0, 1.0, 0.0, 1.0)

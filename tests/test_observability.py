@@ -13,6 +13,7 @@ import pytest
 from scenes import Scene, Texture, arc_path
 
 from neuroslam import NeuroSLAM
+from neuroslam.config import VisualOdometryConfig
 from neuroslam.vision.odometry import VisualOdometry
 
 HALL = {"half_width": 6.0, "half_length": 9.0}  # an 18 × 12 m hall, 3 m high
@@ -20,9 +21,11 @@ HALL = {"half_width": 6.0, "half_length": 9.0}  # an 18 × 12 m hall, 3 m high
 TURN = arc_path([(8.0, 0.0), (3.0, math.pi / 2), (4.0, 0.0)], start=(-6.0, -4.0, 0.0))
 
 
-def drive(scene: Scene, path: np.ndarray) -> tuple[np.ndarray, list]:
-    """Per frame (distance m, yaw change rad) read by the default odometry, and what it observed."""
-    odometry = VisualOdometry()
+def drive(scene: Scene, path: np.ndarray, config: VisualOdometryConfig = VisualOdometryConfig()
+          ) -> tuple[np.ndarray, list]:
+    """Per frame (distance m, yaw change rad) read by the odometry (default: the default one), and what it
+    observed."""
+    odometry = VisualOdometry(config)
     motions, observed = [], []
     for k, (x, y, yaw) in enumerate(path):
         motion = odometry.step(scene.render(x, y, yaw), 0.1 if k else 0.0)
@@ -85,6 +88,28 @@ def test_large_tiles_with_sparse_lines_read_the_distance_within_ten_percent_over
     motions, _ = drive(scene, path)
     assert motions[21:, 0].sum() == pytest.approx(20.0, rel=0.10)
     assert abs(math.degrees(motions[1:, 1].sum())) < 5.0  # no gross heading error (3.4° measured over 22 m)
+
+
+def test_a_wall_beside_a_sparsely_marked_floor_does_not_turn_a_straight_path():
+    # the same sparse tiles, the robot 1.5 m from one textured wall and 4.5 m from the other: the near wall's
+    # pixels in the far floor rows (taken for floor farther away by eq. G1) read 19 degrees of turn over 22 m
+    # with the whole floor (the default); eq. G5's lane (odometry.floor_half_width = 1 m) reads 0.9 (measured)
+    scene = Scene(floor=Texture("tiles", level=0.55, scale=3.0, contrast=0.3), half_width=3.0)
+    path = arc_path([(22.0, 0.0)], start=(-11.0, -1.5, 0.0))
+    motions, _ = drive(scene, path, VisualOdometryConfig(floor_half_width=1.0))
+    assert abs(math.degrees(motions[1:, 1].sum())) < 3.0
+    assert motions[21:, 0].sum() == pytest.approx(20.0, rel=0.10)
+
+
+def test_a_blank_lane_beside_a_wall_takes_the_distance_from_the_walls_feet():
+    # a blank floor: the lane (floor_half_width = 1 m) sees nothing, but the wall's foot 1.5 m beside the path
+    # lies on the floor plane and gives the distance in metres (the whole floor's solution, its distance alone:
+    # 4.5 % long measured)
+    scene = Scene(floor=Texture("blank", level=0.5), half_width=3.0)
+    path = arc_path([(22.0, 0.0)], start=(-11.0, -1.5, 0.0))
+    motions, observed = drive(scene, path, VisualOdometryConfig(floor_half_width=1.0))
+    assert motions[21:, 0].sum() == pytest.approx(20.0, rel=0.10)
+    assert all(item.distance == "floor" and item.yaw == "image" for item in observed[1:])
 
 
 def test_an_open_sky_above_a_textured_floor():

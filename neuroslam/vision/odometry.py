@@ -203,6 +203,7 @@ class VisualOdometry:
                                             "needs a pinhole camera; use 'profile' for a panorama")
             self._ground = GroundMotion(horizontal_fov=horizontal_fov, camera_height=config.camera_height,
                                         camera_forward=config.camera_forward, near_row=config.near_floor_row,
+                                        half_width=config.floor_half_width,
                                         min_information=config.floor_min_information)
         self._alignment = self.transitions = None
         self._speed = 0.0  # m/s, the last speed measured off a transition (held across one)
@@ -425,10 +426,12 @@ class VisualOdometry:
           (eq. R2) agrees with it within ``floor_yaw_tolerance`` (else the floor's solution, distance and yaw,
           is a wrong minimum and is not used); else the whole image's (eq. R2: walls, ceiling) where it sees
           the yaw; else none.
-        - Distance, in this order: the floor's where it sees it; the ceiling's (eqs. G1–G3 on the image above
-          the horizon, a plane H above the camera: it gives d / H) times the ceiling height the floor last
-          gave it; the expansion e of the upper image (walls, ceiling, eq. R1) times the scale the floor last
-          gave it, where the image sees the motion; else held.
+        - Distance, in this order: the floor's where it sees it (with ``floor_half_width``, eq. G5's lane beside
+          the path; where the lane does not see it firmly, the whole floor's, whose walls' feet lie on the floor
+          plane, its distance alone: :meth:`~.ground_motion.GroundMotion.whole_floor_distance`); the ceiling's
+          (eqs. G1–G3 on the image above the horizon, a plane H above the camera: it gives d / H) times the
+          ceiling height the floor last gave it; the expansion e of the upper image (walls, ceiling, eq. R1)
+          times the scale the floor last gave it, where the image sees the motion; else held.
 
         The scale of each, H or s (metres of travel per unit: the ceiling's height above the camera, or about
         the mean depth of what is seen above the horizon), is the least-squares ratio of the floor's distances
@@ -463,6 +466,13 @@ class VisualOdometry:
         # the floor sees the distance firmly where its information outweighs the prior's (1); between
         # floor_min_information and that, a ceiling or upper image whose scale holds is read instead
         firm = floor_sees and ground.information[0] >= _FIRM_FLOOR
+        if not firm and ground.half_width > 0 and self._ceiling_previous is not None:
+            # the lane (eq. G5) does not see the distance firmly: the whole floor's distance, the walls' feet
+            # beside the lane included (its yaw, which the walls bias, is not taken)
+            whole_distance, whole_information = ground.whole_floor_distance(
+                self._ceiling_previous, ground.pyramid, self._held_speed * dt, yaw or 0.0)
+            if whole_information >= _FIRM_FLOOR:
+                firm, floor_distance = True, float(np.clip(whole_distance, -limit_distance, limit_distance))
         distance, distance_source = None, ""
         if firm:
             distance, distance_source = floor_distance, "floor"
@@ -474,7 +484,7 @@ class VisualOdometry:
             if floor_distance > 0 and self._ceiling_countdown <= 0:
                 self._ceiling_countdown = _CEILING_EVERY
                 reading, _ = ceiling.align(self._ceiling_previous, ground.pyramid,
-                                           (floor_distance / (height or _NOMINAL_CEILING), floor_yaw))
+                                           (floor_distance / (height or _NOMINAL_CEILING), yaw or 0.0))
                 if ceiling.sees_distance and reading > 0:
                     self._ceiling_sums += (floor_distance * reading, reading**2, floor_distance**2)
                 expansion, expansion_information = alignment.upper_expansion() if image_sees_yaw else (0.0, 0.0)

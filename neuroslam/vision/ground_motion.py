@@ -275,13 +275,16 @@ class GroundMotion:
         self.motion = np.array([distance, turn])
         return float(distance), float(turn)
 
-    def _solve(self, previous: list[np.ndarray], current: list[np.ndarray], prior: np.ndarray) -> tuple[float, float]:
-        """Eq. G3 coarse to fine from the prior."""
+    def _solve(self, previous: list[np.ndarray], current: list[np.ndarray], prior: np.ndarray, *,
+               whole: bool = False) -> tuple[float, float]:
+        """Eq. G3 coarse to fine from the prior, then eq. G4 (with ``whole``: over the whole floor, beyond eq. G5's
+        lane too, and without eq. G4)."""
         distance, turn = prior
         for level, (old, new) in enumerate(zip(previous, current, strict=True)):
             finest = level == len(current) - 1  # coarser levels only start the next: stop them sooner
-            distance, turn = self._align(old, new, distance, turn, prior, tolerance=1.0 if finest else 5.0)
-        if self.near_row > 0:  # eq. G4: the yaw again on the near floor alone, from the full solution
+            distance, turn = self._align(old, new, distance, turn, prior, tolerance=1.0 if finest else 5.0,
+                                         whole=whole)
+        if self.near_row > 0 and not whole:  # eq. G4: the yaw again on the near floor alone, from the full solution
             near_turn, information = self._align(previous[-1], current[-1], distance, turn, prior, near_only=True)
             if (information >= self.near_information * (self.robust_scale / _PRIOR_TURN) ** 2
                     and abs(near_turn - turn) <= self.near_tolerance):
@@ -300,11 +303,7 @@ class GroundMotion:
         kept. Returns (d, its information in the prior's weights, as :attr:`information`'s first entry);
         leaves :attr:`motion`, :attr:`information` and :attr:`support` as they were."""
         kept = self.information, self.support
-        prior = np.array([distance, turn])
-        for level, (old, new) in enumerate(zip(previous, current, strict=True)):
-            finest = level == len(current) - 1
-            distance, turn = self._align(old, new, distance, turn, prior, tolerance=1.0 if finest else 5.0,
-                                         whole=True)
+        distance, _ = self._solve(previous, current, np.array([distance, turn]), whole=True)
         information = float(self.information[0])
         self.information, self.support = kept
         return float(distance), information

@@ -117,6 +117,30 @@ def test_a_transition_steeper_than_max_slope_is_refused():
     assert math.degrees(tracker.pitch) == pytest.approx(14.5)
 
 
+def test_a_transition_commits_only_where_a_frame_of_it_sees_the_pitch():
+    """Frames that see the pitch too little join a run but cannot make one alone: unseen -3.4° and -3.9°
+    then a seen -2.4° (a ramp's top against a blank upper level) take a 10° ramp back to level; the same
+    unseen frames alone, or followed by a seen frame below the rate or of the other sign, change nothing;
+    an unconfirmed run does not show in the current pitch."""
+    def feed_seen(tracker, changes):
+        return [(tracker.step(math.radians(change), 0.1, seen=seen), math.degrees(tracker.current))
+                for change, seen in changes]
+
+    tracker = transitions()
+    feed(tracker, [3.5, 3.5, 3.0, 0.0])
+    assert math.degrees(tracker.pitch) == pytest.approx(10.0)
+    out = feed_seen(tracker, [(-3.4, False), (-3.9, False), (-2.4, True), (0.0, True)])
+    assert [flag for flag, _ in out] == [True, True, True, False]
+    assert [pitch for _, pitch in out[:2]] == pytest.approx([10.0, 10.0])  # not yet seen: held
+    assert out[2][1] == pytest.approx(0.3)  # seen: the whole run shows
+    assert tracker.pitch == 0.0  # 0.3° from level: level
+    for tail in ([], [(0.5, True)], [(2.0, True)]):
+        tracker = transitions()
+        feed(tracker, [3.5, 3.5, 3.0, 0.0])
+        feed_seen(tracker, [(-3.4, False), (-3.9, False), *tail, (0.0, True)])
+        assert math.degrees(tracker.pitch) == pytest.approx(10.0), tail
+
+
 def test_the_threshold_is_a_rate():
     """The same 12° transition over 4 frames at 10 Hz or over 12 frames at 30 Hz is found; 0.8° per
     frame at 10 Hz (8°/s) is not a transition, but at 30 Hz (24°/s) it is."""

@@ -246,6 +246,7 @@ class VisualOdometry:
                 state["transitions.previous"] = self._finest.copy()
             state.update({"transitions.pitch": np.float64(self.transitions.pitch),
                           "transitions.run": np.float64(self.transitions.run),
+                          "transitions.seen": np.bool_(self.transitions.seen),
                           "transitions.speed": np.float64(self._speed),
                           "transitions.yaw": np.float64(self._alignment.yaw),
                           "observed.held_speed": np.float64(self._held_speed),
@@ -272,6 +273,7 @@ class VisualOdometry:
         if self.transitions is not None:  # a map saved before height_model existed starts them afresh
             self.transitions.pitch = float(state.get("transitions.pitch", 0.0))
             self.transitions.run = float(state.get("transitions.run", 0.0))
+            self.transitions.seen = bool(state.get("transitions.seen", self.transitions.run != 0.0))
             self._speed = float(state.get("transitions.speed", 0.0))
             self._alignment.yaw = float(state.get("transitions.yaw", 0.0))
             # a map saved before the odometry reported what it observed starts blind, with no scale
@@ -400,9 +402,10 @@ class VisualOdometry:
             pixels = max(self._alignment.pixels, 1)
             image_sees_yaw = self._alignment.information[0] / pixels >= config.min_image_information
             pitch_seen = self._alignment.information[1] / pixels >= config.min_image_information
-            if self._ground is not None and not pitch_seen:
-                pitch_change = 0.0  # a transition starts only where the image sees the pitch
-            if self.transitions.step(pitch_change, dt):
+            # a transition commits only where a frame of it sees the pitch (eq. R3's consistent evidence); until
+            # one does, its frames' motion is read as elsewhere
+            in_transition = self.transitions.step(pitch_change, dt, seen=pitch_seen or self._ground is None)
+            if in_transition and self.transitions.seen:
                 distance = self._speed * dt
                 yaw_change = float(np.clip(aligned_yaw, -config.max_yaw_rate * dt, config.max_yaw_rate * dt))
                 if self._ground is not None:

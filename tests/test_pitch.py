@@ -93,11 +93,14 @@ def test_a_ramp_up_and_down_returns_exactly_to_level():
 
 
 def test_a_transition_is_one_sign_and_at_least_transition_min():
-    """A run that changes sign is two runs; runs below ``transition_min`` change nothing."""
+    """A run that changes sign is two runs; runs below ``transition_min`` change nothing; a run from level is a
+    slope, however gentle, and one back towards level that ends within ``level_snap`` of it is level."""
     tracker = transitions()
     feed(tracker, [2.0, -2.0, 0.0])  # two runs of 2°, each too small
     assert tracker.pitch == 0.0
-    feed(tracker, [1.5, 1.7, 0.0])  # one run of 3.2°: a transition, but within level_snap of level
+    feed(tracker, [1.5, 1.7, 0.0])  # one run of 3.2° from level: a gentle ramp's foot
+    assert math.degrees(tracker.pitch) == pytest.approx(3.2)
+    feed(tracker, [-1.5, -1.5, 0.0])  # 3.0° back towards level, 0.2° left: within level_snap, level
     assert tracker.pitch == 0.0
     feed(tracker, [4.0, 4.0, 0.0])
     assert math.degrees(tracker.pitch) == pytest.approx(8.0)

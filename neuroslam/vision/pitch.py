@@ -32,12 +32,14 @@ the pitch,
     theta_after = theta_before + sum over the run of delta theta                                   (R3)
 
 if the total is at least ``transition_min`` and the new pitch no steeper than ``max_slope`` (a turn near
-a textureless wall can still read as a large pitch change; no ramp is that steep); a new pitch within
-``level_snap`` of level is level (the up and down transitions of a ramp, each measured within about
-10 %, cancel to within a degree or two). Between transitions the pitch holds, so no drift accumulates
-on level floors or along a ramp. Measured on two laps of each of the six worlds of the testbed (before
-the SLAM): every one of the 8–16 transitions found, none false, the odometry's height within 0.12–0.33 m
-RMS of the truth (eqs. 31–32: 1–130 m).
+a textureless wall can still read as a large pitch change; no ramp is that steep); after a transition
+back towards level, a pitch within ``level_snap`` of level is level (the up and down transitions of a
+ramp, each measured within about 10 %, cancel to within a degree or two). A transition from level is a
+slope however gentle: a 5° ramp's foot read as 3.7° and snapped to level was missed, and its top, read
+in full, left the pitch at +5.7° on the level floor beyond (a generated world with 5° ramps, gen2:125).
+Between transitions the pitch holds, so no drift accumulates on level floors or along a ramp. Measured on
+two laps of each of the six worlds of the testbed (before the SLAM): every one of the 8–16 transitions
+found, none false, the odometry's height within 0.12–0.33 m RMS of the truth (eqs. 31–32: 1–130 m).
 
 A run is committed only on consistent evidence: at least one of its frames must see the pitch (the
 image's information on it, eq. R2, above the odometry's ``min_image_information``) and itself change at the
@@ -270,7 +272,7 @@ class LevelTransitions:
         transition_rate: pitch change per second above which a frame belongs to a transition, rad/s.
         transition_min: smallest total of a transition, rad.
         max_slope: steepest slope; a transition that would leave the pitch steeper is refused, rad.
-        level_snap: a pitch this close to level after a transition is level, rad.
+        level_snap: a pitch this close to level after a transition back towards level is level, rad.
     """
 
     def __init__(self, *, transition_rate: float, transition_min: float, max_slope: float, level_snap: float):
@@ -310,4 +312,5 @@ class LevelTransitions:
             return
         pitch = self.pitch + run
         if abs(run) >= self.transition_min and abs(pitch) <= self.max_slope:
-            self.pitch = 0.0 if abs(pitch) < self.level_snap else pitch
+            towards_level = self.pitch != 0.0 and (run > 0) != (self.pitch > 0)
+            self.pitch = 0.0 if towards_level and abs(pitch) < self.level_snap else pitch

@@ -184,9 +184,10 @@ class VisualOdometryConfig:
             floor's 0.99 on the same frames; the benchmark's urban SLAM ATE 0.54 -> 3.96 m).
         min_image_information: with ``ground`` and ``transitions``, the whole image's information on the yaw
             (eq. R2 of :mod:`neuroslam.vision.pitch`, Σ w J², intensity² per rad²) per pixel of the height
-            region below which the image does not see the yaw (nor the pitch), and the odometry says it is
-            blind. 0.2 is five times what sensor noise of 5 grey levels alone gives a uniform image (0.04: noise
-            must never count as seeing), and a twentieth of what any texture across the image gives (1–4).
+            region below which the image does not see the yaw (nor the pitch: a height transition commits only
+            where one of its frames sees it, eq. R3), and the odometry says it is blind. 0.2 is five times what
+            sensor noise of 5 grey levels alone gives a uniform image (0.04: noise must never count as seeing),
+            and a twentieth of what any texture across the image gives (1–4).
         blind_hold: seconds the last observed speed is held where nothing observes the distance, before it is
             taken as 0 (a turn rate is never held: where nothing sees the yaw there is no turn). 10: as long as
             the scales of the ceiling and the upper image are remembered (``scale_memory``), the robot's motion

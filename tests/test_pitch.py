@@ -107,7 +107,8 @@ def test_a_transition_is_one_sign_and_at_least_transition_min():
 
 
 def test_a_transition_steeper_than_max_slope_is_refused():
-    """A turn beside a wall read as -22°: no ramp is that steep; the pitch stays, also while it is read."""
+    """A turn beside a wall read as -22°: no ramp is that steep; the pitch stays, also while it is read. A run
+    that would carry a slope back through level and beyond ``max_slope`` leaves it level."""
     tracker = transitions()
     out = feed(tracker, [-3.0] * 8 + [0.0])
     assert [pitch for _, pitch in out[:4]] == pytest.approx([-3.0, -6.0, -9.0, -12.0])
@@ -118,6 +119,10 @@ def test_a_transition_steeper_than_max_slope_is_refused():
     assert math.degrees(tracker.pitch) == pytest.approx(14.5)
     feed(tracker, [1.5, 1.5, 0.0])  # 17.5°: refused
     assert math.degrees(tracker.pitch) == pytest.approx(14.5)
+    feed(tracker, [-3.5, -15.4, -8.8, -1.8, 0.0])  # back through level to -15°: a top with a wrong frame, level
+    assert tracker.pitch == 0.0
+    feed(tracker, [-3.5, -15.4, -8.8, -1.8, 0.0])  # from level, the same run is refused
+    assert tracker.pitch == 0.0
 
 
 def test_a_transition_commits_only_where_a_frame_of_it_sees_the_pitch():

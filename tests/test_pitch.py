@@ -108,7 +108,7 @@ def test_a_transition_is_one_sign_and_at_least_transition_min():
 
 def test_a_transition_steeper_than_max_slope_is_refused():
     """A turn beside a wall read as -22°: no ramp is that steep; the pitch stays, also while it is read. A run
-    that would carry a slope back through level and beyond ``max_slope`` leaves it level."""
+    that would carry a slope back through level leaves it level, however far past it would go."""
     tracker = transitions()
     out = feed(tracker, [-3.0] * 8 + [0.0])
     assert [pitch for _, pitch in out[:4]] == pytest.approx([-3.0, -6.0, -9.0, -12.0])
@@ -122,6 +122,10 @@ def test_a_transition_steeper_than_max_slope_is_refused():
     feed(tracker, [-3.5, -15.4, -8.8, -1.8, 0.0])  # back through level to -15°: a top with a wrong frame, level
     assert tracker.pitch == 0.0
     feed(tracker, [-3.5, -15.4, -8.8, -1.8, 0.0])  # from level, the same run is refused
+    assert tracker.pitch == 0.0
+    feed(tracker, [3.3, 3.3, 3.3, 0.0, -1.1, -1.1, -1.1, 0.0])  # up 9.9°, then a partial top: 6.6°
+    assert math.degrees(tracker.pitch) == pytest.approx(6.6)
+    feed(tracker, [-2.8, -3.8, -2.5, -2.5, 0.0])  # the rest read too large, -5.0° in all: through level, level
     assert tracker.pitch == 0.0
 
 

@@ -35,15 +35,10 @@ if the total is at least ``transition_min`` and the new pitch no steeper than ``
 a textureless wall can still read as a large pitch change; no ramp is that steep); after a transition
 back towards level, a pitch within ``level_snap`` of level is level (the up and down transitions of a
 ramp, each measured within about 10 %, cancel to within a degree or two). A transition from level is a
-slope however gentle: a 5° ramp's foot read as 3.7° and snapped to level was missed, and its top, read
-in full, left the pitch at +5.7° on the level floor beyond (a generated world with 5° ramps, gen2:125).
-Levels lie between ramps, so a slope never turns straight into the opposite one: a transition back
-towards level that would carry the pitch through it is a top (or foot) read too large, and the pitch is
-level. Measured on gen2:113: a 10.6° ramp's top read -3.5°, -15.4° and -8.8° on frames that saw the
-pitch too little (the -15.4° with about the information sensor noise gives), then -1.8° on one that saw
-it; -29.5° in all was refused as steeper than ``max_slope`` and left the pitch at the ramp's on the
-level floor, where the height climbs without end. On gen2:119 a 9.6° top came as two runs, -3.2° read
-while the upper level came into view and then -11.6°: -4.9° in all, a down slope on the level floor.
+slope however gentle (a 5° ramp's foot read as 3.7° is a ramp). Levels lie between ramps, so a slope never
+turns straight into the opposite one: a transition back towards level that would carry the pitch through
+it, however far, is a top (or foot) read too large, and the pitch is level. Each rule mends a way the
+height ran away on generator-2 worlds (docs/generalization.md, fourth step).
 Between transitions the pitch holds, so no drift accumulates on level floors or along a ramp. Measured on
 two laps of each of the six worlds of the testbed (before the SLAM): every one of the 8–16 transitions
 found, none false, the odometry's height within 0.12–0.33 m RMS of the truth (eqs. 31–32: 1–130 m).
@@ -52,11 +47,8 @@ A run is committed only on consistent evidence: at least one of its frames must 
 image's information on it, eq. R2, above the odometry's ``min_image_information``) and itself change at the
 transition rate, with the run's sign. Frames that see the pitch less may still join a run, but a run
 made of them alone changes nothing: a uniform image or a turn beside a blank wall reads noise at any
-rate. A ramp's top against a dim, blank upper level is such a run: the crest's first frames read the
-pitch correctly with 0.6–0.9 of the information the odometry asks for (measured on a generated
-three-level world (gen2:110): -3.4°, -3.9°, then -2.4° on a frame that saw it, -9.8° in all for a 10° ramp). Taking
-only the frames that see it, as before, the run was -2.4°, below ``transition_min``: the pitch stayed at the
-ramp's, and the height climbed 0.18 m a second for the rest of the drive.
+rate. A ramp's top against a dim, blank upper level is read mostly on such frames (gen2:110: -3.4° and
+-3.9° unseen, then -2.4° seen, for a 10° ramp); taking the seen frames alone missed it.
 
 Slopes that change gradually (a curved ramp) are not followed: that is the model's limit.
 """
@@ -278,7 +270,8 @@ class LevelTransitions:
     Args:
         transition_rate: pitch change per second above which a frame belongs to a transition, rad/s.
         transition_min: smallest total of a transition, rad.
-        max_slope: steepest slope; a transition that would leave the pitch steeper is refused, rad.
+        max_slope: steepest slope; a transition that would leave the pitch steeper is refused (unless it runs
+            back through level: then level), rad.
         level_snap: a pitch this close to level after a transition back towards level is level, rad.
     """
 

@@ -74,7 +74,8 @@ def _noise_grid(seed: int) -> np.ndarray:
 @dataclass(frozen=True)
 class Scene:
     """A box of textured planes. ``half_width``: the side walls at y = ±half_width (None: none);
-    ``half_length``: the end walls at x = ±half_length (None: none); ``ceiling``: its height (None: sky)."""
+    ``half_length``: the end walls at x = ±half_length (None: none); ``ceiling``: its height (None: sky);
+    ``wall_height``: the walls' height (m; above it, sky or ceiling)."""
 
     floor: Texture = field(default_factory=Texture)
     walls: Texture | None = field(default_factory=lambda: Texture(seed=1))
@@ -83,6 +84,7 @@ class Scene:
     half_length: float | None = None
     ceiling: float | None = 3.0
     sky: float = 0.85
+    wall_height: float = math.inf  # m: the walls' tops (sky above them where there is no ceiling)
 
     def render(self, x: float, y: float, yaw: float) -> np.ndarray:
         """The grey image (HEIGHT × WIDTH, float32 in [0, 1]) seen from the robot at (x, y, yaw), m and rad."""
@@ -114,11 +116,13 @@ class Scene:
             if self.walls is not None and self.half_width is not None:
                 for side in (-1, 1):
                     t = (side * self.half_width - oy) / dy
-                    hit(np.where(dy * side > 0, t, np.inf), self.walls, ox + t * dx + 100.0 * side, oz + t * dz)
+                    t = np.where((dy * side > 0) & (oz + t * dz <= self.wall_height), t, np.inf)
+                    hit(t, self.walls, ox + t * dx + 100.0 * side, oz + t * dz)
             if self.walls is not None and self.half_length is not None:
                 for side in (-1, 1):
                     t = (side * self.half_length - ox) / dx
-                    hit(np.where(dx * side > 0, t, np.inf), self.walls, oy + t * dy + 50.0 * side, oz + t * dz)
+                    t = np.where((dx * side > 0) & (oz + t * dz <= self.wall_height), t, np.inf)
+                    hit(t, self.walls, oy + t * dy + 50.0 * side, oz + t * dz)
         image = image.reshape(HEIGHT, SUPERSAMPLING, WIDTH, SUPERSAMPLING).mean(axis=(1, 3))
         return image.astype(np.float32)
 

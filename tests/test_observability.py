@@ -120,6 +120,23 @@ def test_an_open_sky_above_a_textured_floor():
     assert all(item.distance == "floor" and item.yaw == "floor" for item in observed[1:])
 
 
+def test_an_open_deck_turns_by_the_distant_structure_along_its_horizon():
+    # a blank floor under the sky; the only structure is a low fence 25–30 m away (1.5 m high, posts every 4 m
+    # 0.15 darker than its boards): a band a few pixels high along the horizon, too little information per
+    # pixel for the image's alignment (eq. R2) to see the yaw, but one shift of the column profile fits it
+    fence = Texture("tiles", level=0.62, scale=4.0, contrast=0.15, line=0.3)
+    scene = Scene(floor=Texture("blank", level=0.45), ceiling=None, walls=fence, half_width=25.0,
+                  half_length=30.0, wall_height=1.5)
+    motions, observed = drive(scene, TURN)
+    _, turn = truth(TURN)
+    assert motions[1:, 1].sum() == pytest.approx(turn.sum(), rel=0.10)  # 89.8 of 90 degrees measured
+    assert abs(math.degrees(motions[1:80, 1].sum())) < 3.0  # the first 8 m: no turn
+    assert sum(item.yaw == "profile" for item in observed[1:]) >= 0.9 * len(observed[1:])
+    # the same deck with nothing along the horizon: a uniform sky and floor claim no turn and say so
+    motions, observed = drive(Scene(floor=Texture("blank", level=0.45), ceiling=None, walls=None), TURN)
+    assert np.all(motions[1:, 1] == 0.0) and all(item.yaw == "none" for item in observed[1:])
+
+
 def test_a_floor_solution_the_whole_image_contradicts_is_not_taken(monkeypatch):
     # a wrong minimum of the floor alignment (as on a sparsely marked ramp: single frames read 3–13 degrees of
     # turn while driving straight): every tenth frame the floor reports 8 degrees of turn and half the

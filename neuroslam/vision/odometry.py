@@ -228,6 +228,8 @@ class VisualOdometry:
         self.panoramic = panoramic
         self.pitch = 0.0
         self._previous: dict[str, np.ndarray] | None = None
+        # the last two frames' column profiles (eqs. 27–29), for the yaw where nothing else sees it
+        self._rotation_profiles: tuple[np.ndarray, np.ndarray] | None = None
         self._equal_angle: dict[int, tuple[np.ndarray, float]] = {}
         self._angle_per_sample = 0.0
         self._ground = None

@@ -350,6 +350,11 @@ class VisualOdometry:
         self._equal_angle[image_width] = result
         return result
 
+    @property
+    def _max_columns(self) -> int:
+        """The largest shift of the column profile searched by eq. 27, samples."""
+        return max(1, int(round(self.config.max_column_shift * self.config.profile_width)))
+
     def _profiles(self, grey_image: np.ndarray) -> dict[str, np.ndarray]:
         width = self.config.profile_width
         rotation = crop(grey_image, self.config.rotation_region)
@@ -380,8 +385,7 @@ class VisualOdometry:
         self._rotation_profiles = (previous["rotation"], profiles["rotation"])  # for the yaw of last resort
         if ground is None or self.transitions is None:
             # eqs. 27–29; the profile shift also aligns the height region (eqs. 31–32)
-            max_columns = max(1, int(round(config.max_column_shift * width)))
-            column_shift, _ = best_shift(previous["rotation"], profiles["rotation"], max_columns,
+            column_shift, _ = best_shift(previous["rotation"], profiles["rotation"], self._max_columns,
                                          circular=self.panoramic)
         if ground is not None:  # eqs. G1–G3 instead of eqs. 27–30 for the planar motion
             ground_distance, ground_turn = ground
@@ -502,8 +506,7 @@ class VisualOdometry:
                 quadrant_yaw = aligned_yaw
             yaw, yaw_source = float(np.clip(quadrant_yaw, -limit_yaw, limit_yaw)), "image"
         else:  # the column profile's shift (eqs. 27–29), where one shift stands out
-            shift, stands_out = profile_turn(*self._rotation_profiles,
-                                             max(1, int(round(config.max_column_shift * config.profile_width))))
+            shift, stands_out = profile_turn(*self._rotation_profiles, self._max_columns)
             if stands_out:
                 yaw = float(np.clip(config.yaw_scale * shift * self._angle_per_sample, -limit_yaw, limit_yaw))
                 yaw_source = "profile"

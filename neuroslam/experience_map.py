@@ -155,10 +155,6 @@ class ExperienceMap:
         self._settled = True
         self.current = -1
         self.relative = np.zeros(4)  # odometric pose of the robot in the current experience's frame
-        # whether ``relative`` is odometry alone since the current experience was made (exact to the
-        # odometry's drift), or began at a place read from the codes on re-entering it (uncertain by up to
-        # ``confirmation_tolerance``, like a loop closure): the next link's weight says which
-        self.anchored = True
         self.loop_closures = 0
         self.component = 0  # the map the robot is in: new experiences join it, only its experiences match
         self.session = 0  # the current session (see begin_session)
@@ -243,8 +239,7 @@ class ExperienceMap:
         state = {name: getattr(self, attribute).view.copy() for name, (attribute, _, _) in _STATE_ARRAYS.items()}
         state.update(settled=np.bool_(self._settled), current=np.int64(self.current), relative=self.relative.copy(),
                      loop_closures=np.int64(self.loop_closures), component=np.int64(self.component),
-                     session=np.int64(self.session), odometer=np.float64(self.odometer),
-                     anchored=np.bool_(self.anchored))
+                     session=np.int64(self.session), odometer=np.float64(self.odometer))
         return state
 
     def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
@@ -286,7 +281,6 @@ class ExperienceMap:
         self.component = int(state["component"])
         self.session = int(state["session"])
         self.odometer = float(state.get("odometer", 0.0))
-        self.anchored = bool(state.get("anchored", True))  # a map saved before: as it was then
 
     def begin_session(self) -> None:
         """Start a new session in a new, empty component: the next update creates its first experience at
@@ -296,7 +290,6 @@ class ExperienceMap:
         self.component = int(self.components.max()) + 1 if self.size else self.component
         self.current = -1
         self.relative = np.zeros(4)
-        self.anchored = True
         self.odometer = 0.0
 
     def enter(self, experience: int, relative: np.ndarray) -> None:
@@ -305,7 +298,6 @@ class ExperienceMap:
         self.current = int(experience)
         self.component = int(self.components[experience])
         self.relative = np.asarray(relative, dtype=float).copy()
-        self.anchored = False
 
     def move_component(self, component: int, into: int, yaw: float, translation: np.ndarray,
                        grid_codes: np.ndarray, direction_codes: np.ndarray) -> np.ndarray:
@@ -350,7 +342,6 @@ class ExperienceMap:
         if self.current >= 0:
             robot = self.robot_pose()
             self.relative = self._compose(self._invert(self.poses[replacement[self.current]]), robot)
-            self.anchored = self.anchored and replacement[self.current] == self.current
             self.current = int(remap[self.current])
         links = remap[self.links]
         joined = links[:, 0] != links[:, 1]
@@ -492,7 +483,6 @@ class ExperienceMap:
         if self.current < 0:
             self._create(template_id, grid_code, direction_code, time, pose=self.relative.copy())
             self.relative[:] = 0
-            self.anchored = True
             return MapUpdate(self.current, True, False)
         candidates = self._candidates(template_id)
         if len(candidates):
@@ -512,10 +502,8 @@ class ExperienceMap:
         if best_score > self.config.threshold or (closes_loop and not may_close_loop and not on_the_spot):
             previous = self.current
             self._create(template_id, grid_code, direction_code, time, pose=self.robot_pose())
-            # driven from where the odometry alone put the robot, or from a place read off the codes
-            self._link(previous, self.current, time, weight=1.0 if self.anchored else self.config.closure_weight)
+            self._link(previous, self.current, time)
             self.relative[:] = 0
-            self.anchored = True
             self._relax(self.config.idle_passes)
             return MapUpdate(self.current, True, False)
         if best == self.current:
@@ -538,7 +526,6 @@ class ExperienceMap:
                 self._settled = False
         self.current = best
         self.relative = offset
-        self.anchored = False
         self._relax(self.config.relaxation_passes if closes_loop else self.config.idle_passes)
         return MapUpdate(best, False, closes_loop)
 

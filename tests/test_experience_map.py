@@ -138,33 +138,6 @@ def test_least_squares_relaxation_reaches_the_minimum_of_eq_25s_link_errors():
     assert cost <= _link_cost(passes.poses, links, link_poses, weights) + 1e-9
 
 
-def test_a_link_driven_from_a_place_read_off_the_codes_weighs_as_little_as_a_closure():
-    """After a loop closure the robot's pose relative to the re-entered experience comes from the codes
-    (uncertain by up to ``confirmation_tolerance``), not from the odometry: the link of the next new
-    experience carries that offset's error and weighs ``closure_weight``; a link driven from an experience
-    the robot made itself weighs 1. The flag survives saving and loading."""
-    closed = _loop_with("least-squares")
-    weight = closed.config.closure_weight
-    assert not closed.anchored
-    closed.integrate(2.0, 0.0, 0.0)
-    closed.update(20, np.array([50.0, 0.0, 0.0]), np.zeros(2), 9.0)  # a new view: a new experience
-    assert closed.anchored
-    closed.integrate(2.0, 0.0, 0.0)
-    closed.update(21, np.array([60.0, 0.0, 0.0]), np.zeros(2), 10.0)
-    assert closed.link_weights.tolist() == [1.0] * 7 + [weight, weight, 1.0]
-    # re-entering an experience linked to the current one (following the map) also reads the place off the codes
-    followed = _loop_with("least-squares")
-    followed.integrate(2.0, 0.0, 0.25)
-    followed.update(1, np.array([10.0, 0.0, 0.0]), np.zeros(2), 9.0)  # experience 1, linked to 0: no closure
-    assert followed.current == 1 and followed.loop_closures == 1 and not followed.anchored
-    state = followed.state_dict()
-    loaded = ExperienceMap(followed.config, grid_size=(100, 100, 100))
-    loaded.load_state_dict(state)
-    assert not loaded.anchored
-    loaded.load_state_dict({name: value for name, value in state.items() if name != "anchored"})
-    assert loaded.anchored  # a state saved before the flag existed: every link as it was, weighing 1
-
-
 def test_a_map_saved_before_links_had_weights_loads_with_all_alike():
     """States written before ``link_weights`` existed load with every link weighing 1; a state with the
     weights keeps them."""

@@ -94,8 +94,10 @@ class WheelOdometry:
         x, y: position in the odometry frame (the start pose's frame, aligned with the world at start), m.
         yaw: heading, rad (unwrapped).
         distance: path length rolled by the wheels, m.
-        forward_speed: over the last control period, m/s.
-        yaw_rate: over the last control period, rad/s.
+        forward_speed: mean since the previous reading (:meth:`Simulation.wheel_odometry`), m/s: the
+            distance rolled since then over the time since then, so that speed × that time is the motion
+            (a camera frame's, an action's), not the last control period's sampled.
+        yaw_rate: mean since the previous reading, rad/s.
     """
 
     x: float
@@ -123,6 +125,10 @@ class _OdometryState:
     forward_speed: float = 0.0
     yaw_rate: float = 0.0
     encoders: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    # since the previous reading: signed distance rolled (m), turn (rad), time (s)
+    rolled: float = 0.0
+    turned: float = 0.0
+    elapsed: float = 0.0
 
 
 def _yaw_of(quaternion: np.ndarray) -> float:
@@ -302,8 +308,9 @@ class Simulation:
         state.y += distance * math.sin(heading)
         state.yaw += turn
         state.distance += abs(distance)
-        state.forward_speed = distance / period
-        state.yaw_rate = turn / period
+        state.rolled += distance
+        state.turned += turn
+        state.elapsed += period
 
     def floor_height(self, x: float, y: float, z: float, *, reach: float = ROUTE_FLOOR_TOLERANCE) -> float | None:
         """Height of the world's surface under ``(x, y)`` within ``reach`` m of ``z``, or None.
@@ -353,8 +360,12 @@ class Simulation:
         return GroundTruth(position, _yaw_of(quaternion), quaternion, int(self.world.level_of(position[2])), velocity)
 
     def wheel_odometry(self) -> WheelOdometry:
-        """Dead-reckoned planar pose from the wheel encoders, in the start pose's frame."""
+        """Dead-reckoned planar pose from the wheel encoders, in the start pose's frame, with the mean speed
+        and turn rate since the previous reading (a second reading at the same time repeats them)."""
         s = self._odometry
+        if s.elapsed > 0:
+            s.forward_speed, s.yaw_rate = s.rolled / s.elapsed, s.turned / s.elapsed
+            s.rolled = s.turned = s.elapsed = 0.0
         return WheelOdometry(s.x, s.y, s.yaw, s.distance, s.forward_speed, s.yaw_rate)
 
     def imu(self) -> ImuReading:

@@ -25,7 +25,9 @@ def flat_world(tmp_path):
 def test_forward_command_moves_forward_at_the_commanded_speed(flat_world):
     with Simulation(flat_world, noise=OdometryNoise(0, (0, 0), 0, 0)) as simulation:
         simulation.set_command(1.0, 0.0)
-        simulation.step(3.0)
+        simulation.step(2.9)
+        simulation.wheel_odometry()  # a reading: the next one's speed is the mean over the last 0.1 s
+        simulation.step(0.1)
         truth = simulation.ground_truth()
         # 1.5 m/s^2 acceleration limit: 2/3 s to reach 1 m/s, so 3 s cover 3 - 1 / (2 * 1.5) m,
         # less a little lag of the wheels' velocity servos
@@ -35,6 +37,26 @@ def test_forward_command_moves_forward_at_the_commanded_speed(flat_world):
         odometry = simulation.wheel_odometry()
         assert odometry.x == pytest.approx(truth.position[0], rel=0.02)
         assert odometry.forward_speed == pytest.approx(1.0, abs=0.05)
+
+
+def test_wheel_rates_are_the_means_since_the_previous_reading(flat_world):
+    # a camera frame spans several control periods: the speed and turn rate it reads, times its duration,
+    # must be its motion (the last control period's rates alone sample it: 0.24 degrees a frame off, on
+    # average, on a generated world's drive)
+    with Simulation(flat_world, noise=OdometryNoise(0.02, (0, 0), 0, 0), seed=3) as simulation:
+        before = simulation.wheel_odometry()
+        for step, (speed, yaw_rate) in enumerate([(1.0, 0.0), (1.0, 0.8), (0.5, -0.6), (1.0, 0.3)] * 3):
+            simulation.set_command(speed, yaw_rate)
+            start = simulation.time
+            for _ in range(5):  # a 0.1 s frame driven one control period at a time, as ScriptedDrive does
+                simulation.step(0.02)
+            now = simulation.wheel_odometry()
+            duration = simulation.time - start
+            assert now.yaw_rate * duration == pytest.approx(now.yaw - before.yaw, abs=1e-12), step
+            assert abs(now.forward_speed) * duration == pytest.approx(now.distance - before.distance, abs=1e-12)
+            again = simulation.wheel_odometry()  # a second reading at the same time repeats the rates
+            assert (again.forward_speed, again.yaw_rate) == (now.forward_speed, now.yaw_rate)
+            before = now
 
 
 def test_positive_yaw_rate_turns_counter_clockwise(flat_world):

@@ -25,17 +25,13 @@ reference and the SLAM meet the targets on.
 
 from __future__ import annotations
 
-import argparse
-import csv
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
-from generalization import TARGETS
+from generalization import TARGETS, measure_drives
 from scipy.optimize import least_squares
 from scipy.sparse import coo_matrix
-from tqdm import tqdm
 
 from neuroslam.datasets import read_groundtruth
 from neuroslam.evaluation.trajectory import ate_rmse
@@ -129,23 +125,9 @@ def meets(ate: float, odometry: float) -> bool:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("run", type=Path, help="output folder of benchmarks/generalization.py")
-    parser.add_argument("--force", action="store_true", help="replace an existing closure_reference.csv")
-    args = parser.parse_args(argv)
-    drives = sorted(path.parent for path in args.run.glob("drives/*/metrics.json"))
-    if not drives:
-        print(f"closure_reference: no drives/*/metrics.json under {args.run}", file=sys.stderr)
+    rows = measure_drives("closure_reference", __doc__.split("\n\n")[0], measure, argv)
+    if rows is None:
         return 2
-    out = args.run / "closure_reference.csv"
-    if out.exists() and not args.force:
-        print(f"closure_reference: {out} exists (--force replaces it)", file=sys.stderr)
-        return 2
-    rows = [measure(drive) for drive in tqdm(drives, unit="drive")]
-    with out.open("w", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
     print(f"{'world':10s} {'odometry':>9s} {'reference':>10s} {'SLAM':>7s} {'closures':>9s}")
     for row in rows:
         print(f"{row['world']:10s} {row['ate_odometry_m']:9.2f} {row['ate_reference_m']:10.2f} "
@@ -154,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
     slam = sum(meets(row["ate_slam_m"], row["ate_odometry_m"]) for row in rows)
     ratio = np.median([row["ate_slam_m"] / row["ate_reference_m"] for row in rows])
     print(f"{len(rows)} worlds: {HALVES} holds for the reference on {reference}, for the SLAM on {slam}; "
-          f"SLAM / reference median {ratio:.2f}. Written: {out}")
+          f"SLAM / reference median {ratio:.2f}.")
     return 0
 
 

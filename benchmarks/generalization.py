@@ -133,6 +133,36 @@ def report(summary: dict) -> list[str]:
     return lines
 
 
+def measure_drives(name: str, description: str, measure, argv: list[str] | None) -> list[dict] | None:
+    """A per-drive measurement over a run of this benchmark: parse ``RUN [--force]``, apply ``measure``
+    (a drive folder → one dict row) to every ``RUN/drives/*`` with a metrics.json and write the rows to
+    ``RUN/NAME.csv``. Returns the rows, or None after printing one line (no drives, or the CSV exists
+    without ``--force``)."""
+    import csv
+
+    from tqdm import tqdm
+
+    parser = argparse.ArgumentParser(prog=f"{name}.py", description=description)
+    parser.add_argument("run", type=Path, help="output folder of benchmarks/generalization.py")
+    parser.add_argument("--force", action="store_true", help=f"replace an existing {name}.csv")
+    args = parser.parse_args(argv)
+    drives = sorted(path.parent for path in args.run.glob("drives/*/metrics.json"))
+    if not drives:
+        print(f"{name}: no drives/*/metrics.json under {args.run}", file=sys.stderr)
+        return None
+    out = args.run / f"{name}.csv"
+    if out.exists() and not args.force:
+        print(f"{name}: {out} exists (--force replaces it)", file=sys.stderr)
+        return None
+    rows = [measure(drive) for drive in tqdm(drives, unit="drive")]
+    with out.open("w", newline="") as file:
+        writer = csv.DictWriter(file, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    print(f"Written: {out}")
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, required=True, help="output folder (results.csv, worlds.md, drives/)")

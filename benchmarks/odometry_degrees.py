@@ -18,14 +18,12 @@ It writes ``RUN/odometry_degrees.csv`` (one row per drive) and prints the table 
 
 from __future__ import annotations
 
-import argparse
-import csv
 import json
 import sys
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
+from generalization import measure_drives
 
 from neuroslam.datasets import read_groundtruth
 from neuroslam.evaluation.trajectory import ate_rmse
@@ -66,23 +64,9 @@ def measure(drive: Path) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("run", type=Path, help="a folder written by benchmarks/generalization.py")
-    parser.add_argument("--force", action="store_true", help="overwrite RUN/odometry_degrees.csv")
-    args = parser.parse_args(argv)
-    drives = sorted(path.parent for path in args.run.glob("drives/*/metrics.json"))
-    if not drives:
-        print(f"odometry_degrees: no drives/*/metrics.json under {args.run}", file=sys.stderr)
+    rows = measure_drives("odometry_degrees", __doc__.split("\n\n")[0], measure, argv)
+    if rows is None:
         return 2
-    out = args.run / "odometry_degrees.csv"
-    if out.exists() and not args.force:
-        print(f"odometry_degrees: {out} exists (--force overwrites it)", file=sys.stderr)
-        return 2
-    rows = [measure(drive) for drive in tqdm(drives, unit="drive")]
-    with out.open("w", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
     print(f"{'world':10} {'odometry':>8} {'yaw fixed':>9} {'distance':>8} {'height':>7} "
           f"{'yaw err turning':>15} {'straight':>8} {'distance read':>13}")
     for row in rows:
@@ -96,8 +80,7 @@ def main(argv: list[str] | None = None) -> int:
           f"{median['ate_rebuilt_m']:.2f}, yaw fixed {median['ate_yaw_fixed_m']:.2f}, distance fixed "
           f"{median['ate_distance_fixed_m']:.2f}, height fixed {median['ate_height_fixed_m']:.2f}; median |yaw "
           f"error| turning {np.median([abs(r['yaw_error_turning_deg']) for r in rows]):.0f}°, straight "
-          f"{np.median([abs(r['yaw_error_straight_deg']) for r in rows]):.0f}° (counter-clockwise on {positive}). "
-          f"Written: {out}")
+          f"{np.median([abs(r['yaw_error_straight_deg']) for r in rows]):.0f}° (counter-clockwise on {positive}).")
     return 0
 
 

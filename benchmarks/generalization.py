@@ -23,12 +23,14 @@ the same folder drives only what is missing and summarises the whole.
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import math
 import sys
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from neuroslam.sweep import expand_worlds, parse_grid, run_sweep
 from sim.arenas import GENERATOR_VERSION, GENERATOR_VERSIONS
@@ -138,10 +140,6 @@ def measure_drives(name: str, description: str, measure, argv: list[str] | None)
     (a drive folder → one dict row) to every ``RUN/drives/*`` with a metrics.json and write the rows to
     ``RUN/NAME.csv``. Returns the rows, or None after printing one line (no drives, or the CSV exists
     without ``--force``)."""
-    import csv
-
-    from tqdm import tqdm
-
     parser = argparse.ArgumentParser(prog=f"{name}.py", description=description)
     parser.add_argument("run", type=Path, help="output folder of benchmarks/generalization.py")
     parser.add_argument("--force", action="store_true", help=f"replace an existing {name}.csv")

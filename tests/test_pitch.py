@@ -132,8 +132,10 @@ def test_a_transition_steeper_than_max_slope_is_refused():
 def test_a_transition_commits_only_where_a_frame_of_it_sees_the_pitch():
     """Frames that see the pitch too little join a run but cannot make one alone: unseen -3.4° and -3.9°
     then a seen -2.4° (a ramp's top against a blank upper level) take a 10° ramp back to level; the same
-    unseen frames alone, or followed by a seen frame below the rate or of the other sign, change nothing;
-    an unconfirmed run does not show in the current pitch."""
+    unseen frames alone (7.3° of the 10°: 2.7° left, within ``level_snap``) end the slope too, since a run
+    that cancels a slope is its own evidence; but unseen frames that leave the slope more than
+    ``level_snap`` from level, or start one from level, or go on away from level, change nothing; an
+    unconfirmed run does not show in the current pitch."""
     def feed_seen(tracker, changes):
         return [(tracker.step(math.radians(change), 0.1, seen=seen), math.degrees(tracker.current))
                 for change, seen in changes]
@@ -149,8 +151,18 @@ def test_a_transition_commits_only_where_a_frame_of_it_sees_the_pitch():
     for tail in ([], [(0.5, True)], [(2.0, True)]):
         tracker = transitions()
         feed(tracker, [3.5, 3.5, 3.0, 0.0])
-        feed_seen(tracker, [(-3.4, False), (-3.9, False), *tail, (0.0, True)])
-        assert math.degrees(tracker.pitch) == pytest.approx(10.0), tail
+        out = feed_seen(tracker, [(-3.4, False), (-3.9, False), *tail, (0.0, True)])
+        assert [pitch for _, pitch in out[:2]] == pytest.approx([10.0, 10.0])  # unseen: held while it runs
+        assert tracker.pitch == 0.0, tail  # the run ended the slope (a trailing frame of another sign or
+        # below the rate is not part of it)
+    for start, unseen in (([3.5, 3.5, 3.0], [-2.0, -2.0]),  # 4° back: 6° left, beyond level_snap
+                          ([], [-3.4, -3.9]),  # from level: a slope's start needs a frame that sees it
+                          ([3.5, 3.5, 3.0], [3.4, 1.2])):  # away from level
+        tracker = transitions()
+        feed(tracker, [*start, 0.0])
+        before = tracker.pitch
+        feed_seen(tracker, [(change, False) for change in unseen] + [(0.0, True)])
+        assert tracker.pitch == before, (start, unseen)
 
 
 def test_the_threshold_is_a_rate():

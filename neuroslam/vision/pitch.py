@@ -316,18 +316,18 @@ class LevelTransitions:
         return moving
 
     def _commit(self) -> None:
-        """End the transition in progress: eq. R3, if a frame of it saw the pitch."""
+        """End the transition in progress: eq. R3, if a frame of it saw the pitch or it ends a slope (see the
+        class)."""
         run, seen, self.run, self.seen = self.run, self.seen, 0.0, False
         pitch = self.pitch + run
         if abs(run) < self.transition_min:
             return
         towards_level = self.pitch != 0.0 and (run > 0) != (self.pitch > 0)
         through_level = towards_level and (pitch > 0) != (self.pitch > 0)
-        # an unseen run changes nothing, except the end of a slope: one back towards level that lands within
-        # level_snap of it (see the class)
-        if not seen and not (towards_level and abs(pitch) < self.level_snap):
+        ends_slope = towards_level and abs(pitch) < self.level_snap
+        if not seen and not ends_slope:  # an unseen run changes nothing, except the end of a slope
             return
-        if towards_level and (abs(pitch) < self.level_snap or through_level):
+        if ends_slope or through_level:
             self.pitch = 0.0  # back to level: a slope never turns straight into the opposite one
         elif abs(pitch) <= self.max_slope:  # no ramp is steeper: refused
             self.pitch = pitch

@@ -133,9 +133,10 @@ def test_a_transition_commits_only_where_a_frame_of_it_sees_the_pitch():
     """Frames that see the pitch too little join a run but cannot make one alone: unseen -3.4° and -3.9°
     then a seen -2.4° (a ramp's top against a blank upper level) take a 10° ramp back to level; the same
     unseen frames alone (7.3° of the 10°: 2.7° left, within ``level_snap``) end the slope too, since a run
-    that cancels a slope is its own evidence; but unseen frames that leave the slope more than
-    ``level_snap`` from level, or start one from level, or go on away from level, change nothing; an
-    unconfirmed run does not show in the current pitch."""
+    that cancels a slope is its own evidence, and so do unseen frames that carry it through level (19.8°
+    back from 10°: a top read too large); but unseen frames that leave the slope more than ``level_snap``
+    from level, or start one from level, or go on away from level, change nothing; an unconfirmed run does
+    not show in the current pitch."""
     def feed_seen(tracker, changes):
         return [(tracker.step(math.radians(change), 0.1, seen=seen), math.degrees(tracker.current))
                 for change, seen in changes]
@@ -148,13 +149,14 @@ def test_a_transition_commits_only_where_a_frame_of_it_sees_the_pitch():
     assert [pitch for _, pitch in out[:2]] == pytest.approx([10.0, 10.0])  # not yet seen: held
     assert out[2][1] == pytest.approx(0.3)  # seen: the whole run shows
     assert tracker.pitch == 0.0  # 0.3° from level: level
-    for tail in ([], [(0.5, True)], [(2.0, True)]):
+    for unseen, tail in (([-3.4, -3.9], []), ([-3.4, -3.9], [(0.5, True)]), ([-3.4, -3.9], [(2.0, True)]),
+                         ([-4.7, -9.9, -5.2], [])):  # the last: 19.8° back, through level (gen2:116's top)
         tracker = transitions()
         feed(tracker, [3.5, 3.5, 3.0, 0.0])
-        out = feed_seen(tracker, [(-3.4, False), (-3.9, False), *tail, (0.0, True)])
+        out = feed_seen(tracker, [*((change, False) for change in unseen), *tail, (0.0, True)])
         assert [pitch for _, pitch in out[:2]] == pytest.approx([10.0, 10.0])  # unseen: held while it runs
-        assert tracker.pitch == 0.0, tail  # the run ended the slope (a trailing frame of another sign or
-        # below the rate is not part of it)
+        assert tracker.pitch == 0.0, (unseen, tail)  # the run ended the slope (a trailing frame of another
+        # sign or below the rate is not part of it)
     for start, unseen in (([3.5, 3.5, 3.0], [-2.0, -2.0]),  # 4° back: 6° left, beyond level_snap
                           ([], [-3.4, -3.9]),  # from level: a slope's start needs a frame that sees it
                           ([3.5, 3.5, 3.0], [3.4, 1.2])):  # away from level

@@ -46,9 +46,11 @@ found, none false, the odometry's height within 0.12–0.33 m RMS of the truth (
 A run is committed only on consistent evidence: at least one of its frames must see the pitch (the
 image's information on it, eq. R2, above the odometry's ``min_image_information``) and itself change at the
 transition rate, with the run's sign. Frames that see the pitch less may still join a run, but a run
-made of them alone changes nothing: a uniform image or a turn beside a blank wall reads noise at any
-rate. A ramp's top against a dim, blank upper level is read mostly on such frames (gen2:110: -3.4° and
--3.9° unseen, then -2.4° seen, for a 10° ramp); taking the seen frames alone missed it.
+made of them alone starts or steepens no slope: a uniform image or a turn beside a blank wall reads noise
+at any rate. A ramp's top against a dim, blank upper level is read mostly on such frames (gen2:110: -3.4°
+and -3.9° unseen, then -2.4° seen, for a 10° ramp); taking the seen frames alone missed it. An unseen run
+does end a slope where it brings the pitch back to within ``level_snap`` of level or through it: a
+coincidence noise does not make, and the world model's (see :class:`LevelTransitions`).
 
 Slopes that change gradually (a curved ramp) are not followed: that is the model's limit.
 """
@@ -270,12 +272,15 @@ class LevelTransitions:
     A run of frames changing the pitch at ``transition_rate`` or faster, one sign throughout, is a transition;
     it commits when it ends, and only where one of its frames saw the pitch (the image's information on it
     above the odometry's ``min_image_information``), except at the end of a slope: a run back towards level
-    that lands within ``level_snap`` of it commits unseen. The world is level floors joined by ramps, so a
-    slope is always ended, and a run that cancels it to within a few degrees is itself the evidence (noise
-    does not make that coincidence); missing it leaves the height climbing without end (measured on the
-    wheel benchmark of 400f57b: a ramp's foot seen at 0.6–0.85 of ``min_image_information`` a frame, read
-    +10.6° against the slope's -10.6°, refused, and gen2:120's height 66 m off after 4,000 frames), while a
-    wrong one costs at most the rest of a ramp.
+    that lands within ``level_snap`` of it, or carries the pitch through it, commits unseen (and the pitch is
+    level). The world is level floors joined by ramps, so a slope is always ended, and a run that cancels it
+    to within a few degrees, or more than cancels it, is itself the evidence (noise does not make that
+    coincidence); missing it leaves the height climbing without end (measured on the wheel benchmark of
+    400f57b: a ramp's foot seen at 0.6–0.85 of ``min_image_information`` a frame, read +10.6° against the
+    slope's -10.6°, refused, and gen2:120's height 66 m off after 4,000 frames; on gen2:116 a ramp's top
+    against a blank upper level, seen at 0.03–0.06, read -19.8° against +11.8°, refused, and the height
+    40 m off a lap later), while a wrong one costs the rest of the ramp (and, where the ramp's true end is
+    then seen and read as a new slope from level, the height until the next transition).
 
     Args:
         transition_rate: pitch change per second above which a frame belongs to a transition, rad/s.
@@ -323,11 +328,11 @@ class LevelTransitions:
         if abs(run) < self.transition_min:
             return
         towards_level = self.pitch != 0.0 and (run > 0) != (self.pitch > 0)
-        through_level = towards_level and (pitch > 0) != (self.pitch > 0)
-        ends_slope = towards_level and abs(pitch) < self.level_snap
+        # back to level, or through it (a slope never turns straight into the opposite one: a top read too large)
+        ends_slope = towards_level and (abs(pitch) < self.level_snap or (pitch > 0) != (self.pitch > 0))
         if not seen and not ends_slope:  # an unseen run changes nothing, except the end of a slope
             return
-        if ends_slope or through_level:
-            self.pitch = 0.0  # back to level: a slope never turns straight into the opposite one
+        if ends_slope:
+            self.pitch = 0.0
         elif abs(pitch) <= self.max_slope:  # no ramp is steeper: refused
             self.pitch = pitch

@@ -141,8 +141,8 @@ def _parser() -> argparse.ArgumentParser:
     _slam_options(drive, sessions=True)
     drive.add_argument("--odometry", choices=["visual", "wheel", "visual-inertial"], default="visual",
                        help="self-motion from the camera (visual odometry), from the wheel encoders with the "
-                       "camera's height rate, or from the camera with the height rate from the IMU's gravity "
-                       "direction (visual-inertial; not the paper's) (default: visual)")
+                       "camera's pitch for the height rate, or from the camera with the height rate from the IMU's "
+                       "gravity direction (visual-inertial; not the paper's) (default: visual)")
     drive.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
     _record_option(drive)
 
@@ -286,10 +286,11 @@ def _drive(args: argparse.Namespace) -> int:
                 pitch = gravity.step(frame.imu.accelerometer, dt)
                 seen = None if visual.observed is None else Observed(visual.observed.distance, visual.observed.yaw)
                 motion = SelfMotion(visual.forward_speed, visual.yaw_rate, visual.forward_speed * math.sin(pitch), seen)
-            elif args.odometry == "wheel":  # encoders for speed and turn; the camera for the height rate
+            elif args.odometry == "wheel":  # encoders for speed and turn; the camera for the pitch
                 visual = slam.visual_odometry.step(grey(frame.image), dt)
                 seen = None if visual.observed is None else Observed(height=visual.observed.height)
-                motion = SelfMotion(frame.odometry.forward_speed, frame.odometry.yaw_rate, visual.climb_rate, seen)
+                speed = frame.odometry.forward_speed
+                motion = SelfMotion(speed, frame.odometry.yaw_rate, slam.visual_odometry.climb_rate_at(speed), seen)
             estimate = slam.step(frame.image, frame.time, odometry=motion)
             slam_seconds += time.perf_counter() - slam_started
             previous_time = frame.time

@@ -7,9 +7,10 @@ until the episode ends, localising itself with its pose source:
 
 - ``groundtruth``: the simulator's pose (the upper bound);
 - ``odometry``: the wheel encoders integrated from the start;
-- ``slam``: NeuroSLAM's estimate from the wheels' speed and turn rate and the camera's views and height
-  rate (as ``neuroslam drive --odometry wheel``; with a loaded map of an earlier drive of the same world,
-  the session starts in it, ``start="known"``), expressed in the world through the start pose.
+- ``slam``: NeuroSLAM's estimate from the wheels' speed and turn rate and the camera's views and pitch
+  (the height rate is the wheels' speed times the sine of the camera's pitch; as ``neuroslam drive
+  --odometry wheel``; with a loaded map of an earlier drive of the same world, the session starts in it,
+  ``start="known"``), expressed in the world through the start pose.
 
 The agent protocol (a user's agent plugs in as ``module:Class``)::
 
@@ -166,10 +167,11 @@ class EpisodeRunner:
             origin, (x, y, yaw) = self.odometry_origin, np.array(info["odometry_pose"], dtype=float)
             relative = _relative(np.array([origin[0], origin[1], 0.0, origin[2]]), np.array([x, y, 0.0, yaw]))
             self.pose = _compose(self.start, relative)  # the wheels measure no height: the start's is kept
-        else:  # the wheels' speed and turn rate, the camera's views and height rate (as drive --odometry wheel)
+        else:  # the wheels' speed and turn rate, the camera's views and pitch (as drive --odometry wheel)
             time = float(info["time"])
-            climb = self.slam.visual_odometry.step(grey(observation["image"]), time - self.slam_time).climb_rate
+            self.slam.visual_odometry.step(grey(observation["image"]), time - self.slam_time)
             speed, yaw_rate = (float(value) for value in observation["odometry"])
+            climb = self.slam.visual_odometry.climb_rate_at(speed)
             estimate = self.slam.step(observation["image"], time, odometry=SelfMotion(speed, yaw_rate, climb))
             self.slam_time = time
             if estimate.merged:  # the estimate moved into the loaded map's frame: keep the pose continuous

@@ -8,7 +8,7 @@ import pytest
 from scipy import ndimage
 
 from neuroslam.config import VisualOdometryConfig
-from neuroslam.errors import InvalidParameterError
+from neuroslam.errors import InvalidInputError, InvalidParameterError
 from neuroslam.vision import VisualOdometry
 from neuroslam.vision.ground_motion import blurred_with_gradients
 from neuroslam.vision.pitch import LevelTransitions, RotationAlignment
@@ -177,6 +177,31 @@ def test_the_threshold_is_a_rate():
     slow, fast = transitions(), transitions()
     assert not any(flag for flag, _ in feed(slow, [0.8] * 5, 0.1))
     assert all(flag for flag, _ in feed(fast, [0.8] * 5, 1 / 30))
+
+
+def test_another_sensors_speed_climbs_on_the_cameras_pitch():
+    """With the wheels' speed (``drive --odometry wheel``): views pitching up 12° then holding still (a blank
+    ramp: the camera sees no travel, so its own climb is 0) climb at speed × sin(12°), clipped at
+    ``max_climb_rate``; a speed that is not a finite number is refused and changes nothing."""
+    first = scene(2)
+    views, pitch = [first], 0.0
+    for change in [0.0, 3.0, 3.0, 3.0, 3.0, 0.0, 0.0, 0.0]:
+        pitch += math.radians(change)
+        views.append(rotated(first, 0.0, pitch))
+    odometry = VisualOdometry(VisualOdometryConfig(), horizontal_fov=FOV)
+    for view in views:
+        own = odometry.step(view, 0.1)
+    assert abs(own.climb_rate) < 1e-6  # the image stands still: the camera measured no travel
+    expected = math.sin(odometry.pitch)
+    assert math.degrees(odometry.pitch) == pytest.approx(12.0, abs=0.5)
+    assert odometry.climb_rate_at(1.0) == pytest.approx(expected, rel=1e-12)
+    assert odometry.climb_rate_at(-0.5) == pytest.approx(-0.5 * expected, rel=1e-12)
+    assert odometry.climb_rate_at(10.0) == odometry.config.max_climb_rate  # 2.08 m/s: clipped at 0.6
+    state = odometry.state_dict()
+    for bad in (math.nan, math.inf, "fast", None):
+        with pytest.raises(InvalidInputError, match="forward_speed"):
+            odometry.climb_rate_at(bad)
+    assert all(np.array_equal(state[key], value) for key, value in odometry.state_dict().items())
 
 
 @pytest.mark.parametrize("planar_motion", ["ground", "profile"])

@@ -430,6 +430,29 @@ class VisualOdometry:
         climb = float(np.clip(climb, -config.max_climb_rate * dt, config.max_climb_rate * dt))
         return SelfMotion(distance / dt, yaw_change / dt, climb / dt)
 
+    def climb_rate_at(self, forward_speed: float) -> float:
+        """The climb rate, m/s, at a forward speed another sensor measured (m/s; wheel encoders measure the
+        travel along the surface, so on a ramp it is the speed along it), on the pitch the last :meth:`step`
+        estimated: speed × sin(pitch) (times ``climb_scale`` with ``height_model = "profile"``, whose pitch
+        that calibrates), within ± ``max_climb_rate``. Call it after :meth:`step` for the same frame.
+
+        The camera's own distance is blind where a ramp's surface is blank (measured on generator-2 worlds:
+        read at a few per cent of the truth for tens of metres of a ramp, so the height stopped climbing while
+        the pitch was right); where the wheels measure the speed, theirs is the one to climb with.
+
+        Raises:
+            InvalidInputError: ``forward_speed`` is not a finite number (nothing is changed).
+        """
+        try:
+            speed = float(forward_speed)
+        except (TypeError, ValueError):
+            speed = math.nan
+        if not math.isfinite(speed):
+            raise InvalidInputError("forward_speed", repr(forward_speed), "must be a finite number (m/s)")
+        config = self.config
+        gain = config.climb_scale if config.height_model == "profile" else 1.0
+        return float(np.clip(gain * speed * math.sin(self.pitch), -config.max_climb_rate, config.max_climb_rate))
+
     def _height_from_transitions(self, finest_before: np.ndarray | None, distance: float, yaw_change: float,
                                  dt: float) -> SelfMotion:
         """The frame's motion with ``height_model = "transitions"``: the pitch by eqs. R1–R3; on a transition

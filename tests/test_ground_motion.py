@@ -167,6 +167,40 @@ def test_a_floor_marked_only_along_the_path_keeps_the_speed():
     assert estimates[0.0][-1] < 0.01
 
 
+def test_an_edge_along_the_path_does_not_see_the_distance():
+    """A blank floor beside a dark strip (a ramp's side, a wall's foot) 0.6 m to the right: the strong edge
+    runs along the path, slides along itself and the image does not change from frame to frame. Counted
+    whole (``aperture`` 0), its gradients, a few degrees off perpendicular to their image motion, give the
+    distance 1.5 times the prior's weight of information and walk it down to rest (measured -0.3 mm a
+    frame, the truth 100 mm); eq. G6 counts almost none of it (0.01), so the floor is blind and the prior
+    holds the last measured distance (12 mm long on the frame the texture left the view: held)."""
+    texture = floor_texture(3)
+    centre = texture.shape[0] / 2
+    across = (np.arange(texture.shape[0]) - centre) * TEXTURE_CELL  # world y of each texture row, m
+    along = (np.arange(texture.shape[1]) - centre) * TEXTURE_CELL  # world x of each texture column, m
+    edge = np.where(across < -0.6, 0.1, 0.5)
+    floor = np.where(along[None, :] < 3.5, texture, np.broadcast_to(edge[:, None], texture.shape))
+    images = drive(floor, [(0.1, 0.0)] * 60)  # beyond x = 2.6 m only the blank floor and the edge are in view
+    estimates, information = {}, {}
+    for aperture in (math.radians(10.0), 0.0):
+        motion = GroundMotion(horizontal_fov=FOV, camera_height=CAMERA_HEIGHT, camera_forward=CAMERA_FORWARD,
+                              aperture=aperture)
+        steps = [(motion.step(image)[0], motion.information[0]) for image in images]
+        estimates[aperture], information[aperture] = np.array(steps)[30:].T
+    held = estimates[math.radians(10.0)]
+    assert np.all(information[math.radians(10.0)] < 0.3)
+    assert np.ptp(held) < 1e-6
+    assert np.abs(held - 0.1).max() < 0.015
+    assert np.all(information[0.0] > 0.3)
+    assert estimates[0.0][-1] < 0.01
+
+
+def test_an_aperture_outside_its_range_is_refused():
+    with pytest.raises(ValueError, match="aperture"):
+        GroundMotion(horizontal_fov=FOV, camera_height=CAMERA_HEIGHT, camera_forward=CAMERA_FORWARD,
+                     aperture=math.pi / 2)
+
+
 def render_beside_wall(floor, wall, x, wall_left, wall_height=2.0):
     """The camera image of a robot at (x, 0) heading along +x on the textured floor, beside a textured wall
     standing ``wall_left`` metres to its left (rays cast to the nearer of floor and wall); sky above."""

@@ -239,7 +239,7 @@ class VisualOdometry:
                                             "needs a pinhole camera; use 'profile' for a panorama")
             self._ground = GroundMotion(horizontal_fov=horizontal_fov, camera_height=config.camera_height,
                                         camera_forward=config.camera_forward, near_row=config.near_floor_row,
-                                        half_width=config.floor_half_width,
+                                        half_width=config.floor_half_width, aperture=config.floor_aperture,
                                         min_information=config.floor_min_information)
         self._alignment = self.transitions = None
         self._speed = 0.0  # m/s, the last speed measured off a transition (held across one)
@@ -257,7 +257,7 @@ class VisualOdometry:
         if self._ground is not None and config.height_model == "transitions":
             self._ceiling = GroundMotion(horizontal_fov=horizontal_fov, camera_height=1.0,
                                          camera_forward=config.camera_forward, surface="ceiling",
-                                         min_information=config.floor_min_information)
+                                         min_information=config.floor_min_information, aperture=config.floor_aperture)
         self._finest: np.ndarray | None = None  # the last image blurred, with gradients (eqs. R1–R2)
         if config.height_model == "transitions":
             if panoramic:

@@ -24,6 +24,9 @@
   against 0.84). The shift times the angle per row is the change of pitch (content moving down: nose
   up), less ``pitch_flow_bias`` per metre driven (forward motion itself moves the floor down the image).
   The integrated pitch, slowly leaked back to level, times the distance is the climb.
+- With ``planar_motion = "ground"`` and ``manhattan`` (the defaults of the ``sim`` preset), each frame's yaw
+  change is then turned towards the orientation of the floor's and the ceiling's straight lines, modulo 90°
+  (eqs. M1–M3 of :mod:`.structure`), which the heading's drift does not move.
 """
 
 from __future__ import annotations
@@ -39,6 +42,7 @@ from ..errors import InvalidInputError, InvalidParameterError
 from .ground_motion import GroundMotion, blurred_with_gradients
 from .pitch import LevelTransitions, RotationAlignment
 from .preprocessing import crop, resize
+from .structure import StructureHeading
 
 __all__ = ["BLIND", "Observed", "SelfMotion", "VisualOdometry", "best_shift", "profile_turn", "vertical_shift"]
 
@@ -214,6 +218,9 @@ class VisualOdometry:
 
     Attributes:
         pitch: the current pitch estimate, rad (nose up positive).
+        lines: with ``planar_motion = "ground"`` and ``manhattan``, the
+            :class:`~.structure.StructureHeading` that turns the heading towards the floor's and the ceiling's
+            straight lines (eq. M3); None otherwise.
         transitions: with ``height_model = "transitions"``, the :class:`~.pitch.LevelTransitions` that hold the
             pitch between ramps' feet and tops (eq. R3); None otherwise.
     """
@@ -259,6 +266,11 @@ class VisualOdometry:
                                          camera_forward=config.camera_forward, surface="ceiling",
                                          min_information=config.floor_min_information, aperture=config.floor_aperture)
         self._finest: np.ndarray | None = None  # the last image blurred, with gradients (eqs. R1–R2)
+        # eqs. M1–M3: the heading against the floor's and the ceiling's straight lines
+        self.lines = (StructureHeading(horizontal_fov=horizontal_fov, strength=config.manhattan_strength,
+                                       spread=config.manhattan_spread, window=config.manhattan_window,
+                                       rate=config.manhattan_rate)
+                      if self._ground is not None and config.manhattan else None)
         if config.height_model == "transitions":
             if panoramic:
                 raise InvalidParameterError("odometry.height_model", config.height_model,
@@ -277,6 +289,8 @@ class VisualOdometry:
             state[f"previous.{name}"] = profile.copy()
         if self._ground is not None:
             state.update({f"ground.{key}": value for key, value in self._ground.state_dict().items()})
+        if self.lines is not None:
+            state.update({f"lines.{key}": value for key, value in self.lines.state_dict().items()})
         if self.transitions is not None:
             if self._ground is None and self._finest is not None:
                 state["transitions.previous"] = self._finest.copy()
@@ -306,6 +320,8 @@ class VisualOdometry:
             raise ValueError("the transition state does not match odometry.height_model")
         if self._ground is not None:
             self._ground.load_state_dict({key[7:]: value for key, value in state.items() if key.startswith("ground.")})
+        if self.lines is not None and "lines.heading" in state:  # a map saved before eq. M3 starts it afresh
+            self.lines.load_state_dict({key[6:]: value for key, value in state.items() if key.startswith("lines.")})
         if self.transitions is not None:  # a map saved before height_model existed starts them afresh
             self.transitions.pitch = float(state.get("transitions.pitch", 0.0))
             self.transitions.run = float(state.get("transitions.run", 0.0))
@@ -370,6 +386,14 @@ class VisualOdometry:
 
     def step(self, grey_image: np.ndarray, dt: float) -> SelfMotion:
         """Self-motion since the previous image (zero for the first), for images ``dt`` seconds apart."""
+        motion = self._step(grey_image, dt)
+        if self.lines is None or dt <= 0 or self._finest is None:
+            return motion
+        yaw_change = self.lines.correct(self._finest, motion.yaw_rate * dt, dt)  # eq. M3
+        return SelfMotion(motion.forward_speed, yaw_change / dt, motion.climb_rate, motion.observed)
+
+    def _step(self, grey_image: np.ndarray, dt: float) -> SelfMotion:
+        """:meth:`step` before eq. M3."""
         profiles = self._profiles(grey_image)
         previous, self._previous = self._previous, profiles
         self._ceiling_previous = None if self._ground is None else self._ground.pyramid

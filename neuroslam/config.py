@@ -214,7 +214,10 @@ class VisualOdometryConfig:
             edges, modulo 90 degrees (eqs. M1–M3 of :mod:`neuroslam.vision.structure`): buildings, car parks and
             streets are built along two perpendicular directions, and their lines, unlike the odometry's
             heading, do not drift. Where a world's lines are not perpendicular, or there are none, it does
-            nothing (the consistency and strength tests below).
+            nothing (the consistency and strength tests below). Off by default: it removes the heading's drift
+            but not its wander (where a wall's edges in the floor rows are read as the floor's lines, for
+            seconds at a time), and the car park's SLAM ATE got worse with it (docs/generalization.md, ninth
+            step).
         manhattan_strength: the least share of a plane's edge energy along two perpendicular directions (R of
             eq. M2) for a frame's line orientation to count. 0.5: most of the edges lie along the lines.
         manhattan_spread: rad; the heading is turned only while the last ``manhattan_window`` counted frames
@@ -260,7 +263,7 @@ class VisualOdometryConfig:
     blind_hold: float = 10.0
     scale_memory: float = 10.0
     floor_yaw_tolerance: float = math.radians(1.0)
-    manhattan: bool = True
+    manhattan: bool = False
     manhattan_strength: float = 0.5
     manhattan_spread: float = math.radians(3.0)
     manhattan_window: int = 50

@@ -86,3 +86,20 @@ def test_the_state_round_trips():
     following = stack(scene, 6.0, 0.0, 0.0)
     assert restored.correct(following, 0.001, 0.1) == lines.correct(following, 0.001, 0.1)
     assert restored.heading == lines.heading and restored.reference == lines.reference
+
+
+def test_the_odometry_follows_the_lines_only_when_asked():
+    """``odometry.manhattan`` (off by default) gives the odometry its StructureHeading; on a straight drive
+    along tiles the heading it integrates is the odometry's own yaw plus eq. M3's corrections."""
+    from neuroslam.config import VisualOdometryConfig
+    from neuroslam.vision.odometry import VisualOdometry
+
+    assert VisualOdometry(VisualOdometryConfig()).lines is None
+    odometry = VisualOdometry(VisualOdometryConfig(manhattan=True))
+    scene = Scene(floor=TILES, walls=None, ceiling=None)
+    total = 0.0
+    for k in range(80):
+        total += odometry.step(scene.render(0.1 * k, 0.0, 0.0), 0.1 if k else 0.0).yaw_rate * 0.1
+    assert odometry.lines.reference is not None
+    assert odometry.lines.heading == pytest.approx(total, abs=1e-12)
+    assert abs(math.degrees(total)) < 1.0  # a textured floor straight ahead: no turn

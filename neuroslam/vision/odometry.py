@@ -24,9 +24,9 @@
   against 0.84). The shift times the angle per row is the change of pitch (content moving down: nose
   up), less ``pitch_flow_bias`` per metre driven (forward motion itself moves the floor down the image).
   The integrated pitch, slowly leaked back to level, times the distance is the climb.
-- With ``planar_motion = "ground"`` and ``manhattan`` (the defaults of the ``sim`` preset), each frame's yaw
-  change is then turned towards the orientation of the floor's and the ceiling's straight lines, modulo 90°
-  (eqs. M1–M3 of :mod:`.structure`), which the heading's drift does not move.
+- With ``planar_motion = "ground"`` and ``manhattan`` (off by default), each frame's yaw change is then turned
+  towards the orientation of the floor's and the ceiling's straight lines, modulo 90° (eqs. M1–M3 of
+  :mod:`.structure`), which the heading's drift does not move.
 """
 
 from __future__ import annotations

@@ -86,7 +86,8 @@ class StructureHeading:
         self.reference: float | None = None
         self.orientation = (0.0, 0.0)
         self._geometry: dict[tuple[int, int, int], tuple] = {}
-        self._recent: deque[float] = deque(maxlen=window)  # psi_structure (no reference yet) or nu, rad
+        self._recent: deque[float] = deque(maxlen=window)  # psi_structure (no reference yet) or nu + _shift, rad
+        self._shift = 0.0  # rad, eq. M3's corrections since the reference: each stored nu is less by as much now
 
     def _plane(self, shape: tuple[int, int], surface: int) -> tuple:
         """Per image size and plane (1 floor, -1 ceiling): the plane's pixels (flat indices) and the entries of
@@ -150,18 +151,18 @@ class StructureHeading:
                 self.reference = middle
                 recent.clear()
             return yaw_change
-        recent.append(_wrap_quarter(self.reference - structure))
+        recent.append(_wrap_quarter(self.reference - structure) + self._shift)
         middle = self._agreed()
         if middle is None or len(recent) < recent.maxlen // 2:
             return yaw_change
         correction = (1.0 - math.exp(-self.rate * dt)) * middle
-        self._recent = deque((value - correction for value in recent), maxlen=recent.maxlen)
+        self._shift += correction  # every stored innovation is smaller by the correction now
         self.heading += correction
         return yaw_change + correction
 
     def _agreed(self) -> float | None:
         """The median of the recent values if their median absolute deviation is within ``spread``, else None."""
-        values = np.fromiter(self._recent, dtype=float, count=len(self._recent))
+        values = np.fromiter(self._recent, dtype=float, count=len(self._recent)) - self._shift
         middle = float(np.median(values))
         return middle if float(np.median(np.abs(values - middle))) <= self.spread else None
 
@@ -169,7 +170,7 @@ class StructureHeading:
         """The integrated heading, the reference (empty: none yet) and the recent values, for saving."""
         return {"heading": np.float64(self.heading),
                 "reference": np.array([] if self.reference is None else [self.reference], dtype=np.float64),
-                "recent": np.array(self._recent, dtype=np.float64)}
+                "recent": np.array(self._recent, dtype=np.float64) - self._shift}
 
     def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
         """Restore :meth:`state_dict`'s output."""
@@ -178,3 +179,4 @@ class StructureHeading:
         self.reference = float(reference[0]) if reference.size else None
         self._recent = deque((float(value) for value in np.asarray(state["recent"]).ravel()),
                              maxlen=self._recent.maxlen)
+        self._shift = 0.0

@@ -235,6 +235,8 @@ class VisualOdometryConfig:
         manhattan_rate: 1/s, eq. M3's rate: the heading moves this share of the median innovation per second
             (a time constant of 5 s at 0.2, the window's length). The odometry's own drift is a few hundredths of
             a degree a frame, which a slow correction removes; a fast one would pass on the per-frame scatter.
+        manhattan_first_row: eq. M1's plane pixels start this far from the image centre (below it for the floor,
+            above it for the ceiling), as a fraction of half the image height.
     """
 
     rotation_region: Region = Region(0.0, 1.0, 0.0, 1.0)
@@ -272,6 +274,7 @@ class VisualOdometryConfig:
     manhattan_spread: float = math.radians(3.0)
     manhattan_window: int = 50
     manhattan_rate: float = 0.2
+    manhattan_first_row: float = 0.3
 
     def __post_init__(self) -> None:
         self.validate()
@@ -323,6 +326,9 @@ class VisualOdometryConfig:
                  isinstance(self.manhattan_window, int) and not isinstance(self.manhattan_window, bool)
                  and self.manhattan_window >= 2, "must be a whole number of frames, 2 or more")
         _positive(path, manhattan_rate=self.manhattan_rate)
+        _require(f"{path}.manhattan_first_row", self.manhattan_first_row,
+                 _number(self.manhattan_first_row) and 0 <= self.manhattan_first_row < 1,
+                 "must be a fraction in [0, 1) of half the image height")
 
 
 @dataclass(frozen=True)

@@ -269,6 +269,7 @@ class VisualOdometry:
         # eqs. M1–M3: the heading against the floor's and the ceiling's straight lines
         self.lines = (StructureHeading(horizontal_fov=horizontal_fov, strength=config.manhattan_strength,
                                        spread=config.manhattan_spread, window=config.manhattan_window,
+                                       first_row=config.manhattan_first_row,
                                        rate=config.manhattan_rate)
                       if self._ground is not None and config.manhattan else None)
         if config.height_model == "transitions":

@@ -89,7 +89,7 @@ import math
 import numpy as np
 from scipy.ndimage import gaussian_filter
 
-__all__ = ["GroundMotion", "blurred_with_gradients", "sample_bilinear", "symmetric_columns"]
+__all__ = ["GroundMotion", "blurred_with_gradients", "sample_bilinear"]
 
 _PRIOR_DISTANCE = 0.02  # m per frame, s_d of eq. G3 (a 1.5 m/s^2 drive changes speed ~0.015 m per frame at 10 Hz)
 _PRIOR_TURN = 0.05  # rad per frame, s_w of eq. G3
@@ -102,16 +102,6 @@ def blurred_with_gradients(image: np.ndarray, smoothing: float) -> np.ndarray:
     blurred = gaussian_filter(np.asarray(image, dtype=np.float32), smoothing)
     gradient_v, gradient_u = np.gradient(blurred)
     return np.stack([blurred, gradient_u, gradient_v])
-
-
-def symmetric_columns(columns: int, step: int) -> np.ndarray:
-    """Every ``step``-th column of an image ``columns`` wide, from the second to the second last, chosen in
-    mirror pairs about the image centre (column u with columns - 1 - u), sorted. A set that is not symmetric
-    (1, 3, ..., 157 of 160 lies half a column left of the centre on average) weighs one side of the scene more,
-    and an estimator's errors then lean one way (``benchmarks/odometry_mirror.py``)."""
-    left = np.arange(1, (columns - 1) / 2, step)
-    middle = [columns // 2] if columns % 2 and (columns // 2 - 1) % step == 0 else []
-    return np.sort(np.concatenate([left, middle, columns - 1 - left]).astype(np.intp))
 
 
 def sample_bilinear(stack: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -278,11 +268,10 @@ class GroundMotion:
         step = 2 if columns > 100 else 1  # every other column at full resolution: half the cost, as accurate
         if self.surface == "floor":
             first = int(math.ceil(centre_v + self.first_row * rows / 2))
-            row_range = np.arange(first, rows - 1)
+            v, u = np.mgrid[first: rows - 1, 1: columns - 1: step]
         else:  # the ceiling: the same rows mirrored above the centre
             last = int(math.floor(centre_v - self.first_row * rows / 2))
-            row_range = np.arange(1, last + 1)
-        v, u = np.meshgrid(row_range, symmetric_columns(columns, step), indexing="ij")
+            v, u = np.mgrid[1: last + 1, 1: columns - 1: step]
         u, v = u.ravel(), v.ravel()
         depth = self._height * focal / (v - centre_v)  # eq. G1 solved for x - a
         ground = np.stack([depth + self.camera_forward, -(u - centre_u) * depth / focal]).astype(np.float32)

@@ -103,14 +103,8 @@ class RotationAlignment:
         rows, columns = shape
         top, bottom, left, right = self.region
         step = 2 if columns > 100 else 1
-        first, stop = int(left * columns), max(int(right * columns), int(left * columns) + 1)
-        row_range = np.arange(int(top * rows), max(int(bottom * rows), int(top * rows) + 1), step)
-        if first + stop == columns:  # a region centred on the image: its columns in mirror pairs
-            left_half = np.arange(first, (columns - 1) / 2, step)
-            column_range = np.sort(np.concatenate([left_half, columns - 1 - left_half]).astype(np.intp))
-        else:
-            column_range = np.arange(first, stop, step)
-        v, u = np.meshgrid(row_range, column_range, indexing="ij")
+        v, u = np.mgrid[int(top * rows): max(int(bottom * rows), int(top * rows) + 1): step,
+                        int(left * columns): max(int(right * columns), int(left * columns) + 1): step]
         u, v = u.ravel(), v.ravel()
         focal = (columns / 2) / math.tan(self.horizontal_fov / 2)
         x = (u - (columns / 2 - 0.5)).astype(np.float64)

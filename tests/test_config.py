@@ -37,6 +37,8 @@ def test_presets_exist_and_differ():
     ({"odometry": {"manhattan_window": 1}}, "odometry.manhattan_window", "2 or more"),
     ({"odometry": {"manhattan_window": 5.0}}, "odometry.manhattan_window", "2 or more"),
     ({"odometry": {"manhattan_rate": 0}}, "odometry.manhattan_rate", "positive"),
+    ({"odometry": {"manhattan_first_row": 1.0}}, "odometry.manhattan_first_row", "[0, 1)"),
+    ({"odometry": {"manhattan_first_row": -0.1}}, "odometry.manhattan_first_row", "[0, 1)"),
     ({"experience_map": {"relaxation": "gauss"}}, "experience_map.relaxation", "passes, least-squares"),
     ({"experience_map": {"loop_closure": "seq"}}, "experience_map.loop_closure", "code, confirmed"),
     ({"experience_map": {"confirmation_window": 10, "confirmation_matches": 11}},

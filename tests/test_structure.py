@@ -95,6 +95,7 @@ def test_the_odometry_follows_the_lines_only_when_asked():
     from neuroslam.vision.odometry import VisualOdometry
 
     assert VisualOdometry(VisualOdometryConfig()).lines is None
+    assert VisualOdometry(VisualOdometryConfig(manhattan=True, manhattan_first_row=0.5)).lines.first_row == 0.5
     odometry = VisualOdometry(VisualOdometryConfig(manhattan=True))
     scene = Scene(floor=TILES, walls=None, ceiling=None)
     total = 0.0

@@ -154,18 +154,28 @@ def test_generator_version_1_stays_byte_for_byte_what_gen_seed_was(seed, digest)
     assert sim.load_world(f"gen1:{seed}").xml == generated(seed, 1).xml
 
 
+@pytest.mark.parametrize("seed, digest", [(0, "52d352af7fe40084"), (7, "57362bccab9fb789"), (101, "2c35b039875bc7ec"),
+                                         (128, "91fa0c917a18fd0d")])
+def test_generator_version_2_stays_byte_for_byte(seed, digest):
+    # the digests of gen2:SEED's MJCF before version 3 (commit 0794100): the worlds the generalization
+    # benchmark's generator-2 runs were measured on
+    import hashlib
+
+    assert hashlib.sha256(generated(seed, 2).xml.encode()).hexdigest()[:16] == digest
+
+
 def test_gen_seed_is_the_latest_version_and_versions_are_named():
     from sim.arenas import GENERATOR_VERSION
 
     assert sim.load_world("gen:7").xml == sim.load_world(f"gen{GENERATOR_VERSION}:7").xml == generated(7).xml
-    assert sim.load_world("gen1:7").xml != sim.load_world("gen2:7").xml
+    assert len({sim.load_world(f"gen{version}:7").xml for version in (1, 2, 3)}) == 3
     with pytest.raises(sim.WorldError, match="no generator version 9") as error:
         sim.load_world("gen9:1")
     assert "'gen9:1'" in str(error.value)
     with pytest.raises(sim.WorldError, match="'gen1:' must be followed by an integer seed"):
         sim.load_world("gen1:x")
-    with pytest.raises(ValueError, match="version=3"):
-        generated(1, 3)
+    with pytest.raises(ValueError, match="version=4"):
+        generated(1, 4)
     for seed in (-1, 1.5, True):
         with pytest.raises(ValueError, match=f"seed={seed!r}"):
             generated(seed)
@@ -218,3 +228,63 @@ def test_generator_version_2_draws_the_documented_distribution():
     assert tops == {"roof", "parapet", "open", "deck"}
     assert min(brightness) < 0.55 and max(brightness) > 1.2
     assert corridors == {"corridor", "hall"}
+
+
+def _visible_coplanar_faces(xml: str) -> list[tuple[str, str, float]]:
+    """Pairs of box faces of different materials lying in one plane, facing the same way and overlapping where
+    nothing covers them (a point 5 mm in front of the overlap outside every box, above every ground plane, and
+    above and within the ground floor's slab ``floor0``: a generated world's footprint, outside and under which
+    no camera goes): (geom, geom, overlapping area in m²). Such faces flicker in a rendered image ("z-fighting")."""
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    boxes = [g for g in range(model.ngeom) if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX]
+    centres, rotations = data.geom_xpos[boxes], data.geom_xmat[boxes].reshape(-1, 3, 3)
+    halves = model.geom_size[boxes]
+    planes = [data.geom_xpos[g][2] for g in range(model.ngeom) if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE]
+    faces = []  # (box index, normal, offset, centre, (axis, half) x 2)
+    for index in range(len(boxes)):
+        for axis in range(3):
+            for sign in (-1.0, 1.0):
+                normal = sign * rotations[index][:, axis]
+                centre = centres[index] + normal * halves[index][axis]
+                sides = [(rotations[index][:, a], halves[index][a]) for a in range(3) if a != axis]
+                faces.append((index, normal, float(normal @ centre), centre, sides))
+    normals = np.array([face[1] for face in faces])
+    offsets = np.array([face[2] for face in faces])
+    grid = (np.arange(8) + 0.5) / 8 * 2 - 1
+    found = []
+    for i, (index, normal, offset, centre, ((a1, h1), (b1, k1))) in enumerate(faces):
+        same = (normals[i + 1:] @ normal > 1 - 1e-9) & (np.abs(offsets[i + 1:] - offset) < 1e-6)
+        for j in np.flatnonzero(same) + i + 1:
+            other, _, _, other_centre, ((a2, h2), (b2, k2)) = faces[j]
+            if other == index or model.geom_matid[boxes[index]] == model.geom_matid[boxes[other]]:
+                continue
+            points = (centre + grid[:, None, None] * h1 * a1 + grid[None, :, None] * k1 * b1).reshape(-1, 3)
+            relative = points - other_centre
+            shared = points[(np.abs(relative @ a2) <= h2 + 1e-9) & (np.abs(relative @ b2) <= k2 + 1e-9)]
+            if not len(shared):
+                continue
+            front = shared + 0.005 * normal
+            local = np.einsum("bji,pbj->pbi", rotations, front[:, None, :] - centres[None])
+            covered = np.all(np.abs(local) <= halves[None], axis=2).any(axis=1)
+            covered |= np.array([any(point[2] < plane for plane in planes) for point in front], dtype=bool)
+            ground_floor = model.geom("floor0").id
+            offset = np.abs(front[:, :2] - data.geom_xpos[ground_floor][:2])
+            inside = np.all(offset <= model.geom_size[ground_floor][:2], axis=1)
+            covered |= (front[:, 2] < 0.0) | ~inside  # under the ground floor (level 0) or outside the footprint
+            if not covered.all():
+                area = (~covered).mean() * len(shared) / len(points) * 4 * h1 * k1
+                found.append((model.geom(boxes[index]).name, model.geom(boxes[other]).name, round(float(area), 3)))
+    return found
+
+
+@pytest.mark.parametrize("seed", [0, 3, 7, 101, 103, 128])
+def test_generated_worlds_have_no_coplanar_faces_of_different_materials(seed):
+    # version 3 (WorldBuilder's coplanar_free): a ramp's side wall standing in a level's outer wall, and a
+    # wall's top in the floor above it, were two faces in one place that flicker from frame to frame in the
+    # camera's images; version 2 had them (the check below finds them), version 3 must not
+    assert _visible_coplanar_faces(generated(seed).xml) == []
+    assert _visible_coplanar_faces(generated(seed, 2).xml) != []

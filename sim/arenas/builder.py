@@ -99,16 +99,34 @@ def _yaw_pitch_quaternion(yaw: float, pitch: float) -> tuple[float, float, float
     )
 
 
+# m: how far a surface is kept out of another's plane where generator version 3 keeps them apart
+# (WorldBuilder.coplanar_free). Far above the depth buffer's resolution (under 0.1 mm at 20 m for the
+# testbed's camera), far below what the camera resolves (a pixel spans 1.7 cm at 2 m).
+COPLANAR_INSET = 0.02
+
+
 class WorldBuilder:
     """Collects static geometry, textures and lights of one world and writes it as MJCF.
 
     Args:
         name: model name written into the MJCF file.
         seed: seed of the generator that picks every texture's colours and pattern.
+        coplanar_free: keep surfaces of different materials out of each other's planes where they overlap
+            (generator version 3 on). Two coplanar faces of one place flicker from frame to frame as the
+            depth buffer picks either ("z-fighting"), which a camera reads as motion: a ramp's side wall
+            standing in a level's outer wall, a wall's top in the floor slab above it, a wall's end in the
+            face of the wall it meets at a corner. With it, a ramp's walls are :data:`COPLANAR_INSET`
+            thinner on each side than a level's (so where one stands in a level's wall it is hidden inside
+            it), every wall reaches :data:`COPLANAR_INSET` less than half its thickness past its end points
+            (its end inside the wall it meets, not in that wall's face), and
+            :func:`~.storeys.build_storeys` ends a level's outer walls :data:`COPLANAR_INSET` below the next
+            floor's top (inside its slab). Off, the geometry is what versions 1 and 2 and the built-in worlds
+            were built with.
     """
 
-    def __init__(self, name: str, seed: int):
+    def __init__(self, name: str, seed: int, *, coplanar_free: bool = False):
         self.name = name
+        self.coplanar_free = bool(coplanar_free)
         self.rng = np.random.default_rng(seed)
         self.root = ET.Element("mujoco", model=name)
         ET.SubElement(self.root, "compiler", angle="radian")
@@ -271,9 +289,10 @@ class WorldBuilder:
         """A vertical wall along the segment ``start``→``end`` (x, y) from height ``bottom`` to ``top``."""
         dx, dy = end[0] - start[0], end[1] - start[1]
         length = math.hypot(dx, dy)
+        beyond = thickness / 2 - (COPLANAR_INSET if self.coplanar_free else 0.0)  # past each end point
         return self.box(
             [(start[0] + end[0]) / 2, (start[1] + end[1]) / 2, (bottom + top) / 2],
-            [length / 2 + thickness / 2, thickness / 2, (top - bottom) / 2],
+            [length / 2 + beyond, thickness / 2, (top - bottom) / 2],
             material=material or self.material("wall"), yaw=math.atan2(dy, dx), kind="wall",
         )
 
@@ -305,20 +324,22 @@ class WorldBuilder:
             material=material or self.material("ramp"), yaw=yaw, pitch=slope, kind="ramp",
         )
         side = self.material("wall")
+        # coplanar_free: thinner than a level's 0.2 m walls, so that one standing in them is hidden inside them
+        wall = {"material": side, "thickness": 0.2 - 2 * COPLANAR_INSET if self.coplanar_free else 0.2}
         if along_x:
-            self.wall((area.x0, area.y0), (area.x1, area.y0), bottom, top + railing, material=side)
-            self.wall((area.x0, area.y1), (area.x1, area.y1), bottom, top + railing, material=side)
+            self.wall((area.x0, area.y0), (area.x1, area.y0), bottom, top + railing, **wall)
+            self.wall((area.x0, area.y1), (area.x1, area.y1), bottom, top + railing, **wall)
             low, high = (area.x0, area.x1) if sign > 0 else (area.x1, area.x0)
-            self.wall((high, area.y0), (high, area.y1), bottom, top - 0.3, material=side)
+            self.wall((high, area.y0), (high, area.y1), bottom, top - 0.3, **wall)
             if low_railing:
-                self.wall((low, area.y0), (low, area.y1), top, top + railing, material=side)
+                self.wall((low, area.y0), (low, area.y1), top, top + railing, **wall)
         else:
-            self.wall((area.x0, area.y0), (area.x0, area.y1), bottom, top + railing, material=side)
-            self.wall((area.x1, area.y0), (area.x1, area.y1), bottom, top + railing, material=side)
+            self.wall((area.x0, area.y0), (area.x0, area.y1), bottom, top + railing, **wall)
+            self.wall((area.x1, area.y0), (area.x1, area.y1), bottom, top + railing, **wall)
             low, high = (area.y0, area.y1) if sign > 0 else (area.y1, area.y0)
-            self.wall((area.x0, high), (area.x1, high), bottom, top - 0.3, material=side)
+            self.wall((area.x0, high), (area.x1, high), bottom, top - 0.3, **wall)
             if low_railing:
-                self.wall((area.x0, low), (area.x1, low), top, top + railing, material=side)
+                self.wall((area.x0, low), (area.x1, low), top, top + railing, **wall)
         return area
 
     def light(self, position: Sequence[float], direction: Sequence[float] = (0, 0, -1), *,

@@ -10,7 +10,9 @@ doorways; random obstacles.
 
 The seeded generator is versioned (:data:`GENERATOR_VERSION`; ``gen:SEED`` is the latest, ``genN:SEED``
 version N), so a seed's world never changes under a researcher: version 1 (:func:`_generated_1`) is kept
-byte for byte, version 2 (:func:`_generated_2`) documents the distribution it draws from.
+byte for byte, version 2 (:func:`_generated_2`) documents the distribution it draws from, and version 3
+draws the same worlds as version 2 without coplanar faces of different materials
+(:class:`~.builder.WorldBuilder`'s ``coplanar_free``).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .builder import FLOOR_STYLES, Rect, WorldBuilder, subtract_rectangles
+from .builder import COPLANAR_INSET, FLOOR_STYLES, Rect, WorldBuilder, subtract_rectangles
 
 __all__ = ["GENERATOR_VERSION", "GENERATOR_VERSIONS", "StoreyLayout", "WorldSource", "build_storeys", "building",
            "carpark", "generated"]
@@ -166,6 +168,8 @@ def build_storeys(builder: WorldBuilder, layout: StoreyLayout, *, floors: Sequen
             builder.ramp(layout.ramp_area(k), "+y" if k % 2 == 0 else "-y", height, layout.levels[k + 1],
                          material=ramps[k] if ramps is not None else None)
         upper = layout.levels[k + 1] if k < top else height + (3.0 if layout.roof else parapet)
+        if k < top and builder.coplanar_free:  # the wall's top inside the next slab, not in its floor's plane
+            upper -= COPLANAR_INSET
         for start, end in (((-w, -d), (w, -d)), ((w, -d), (w, d)), ((w, d), (-w, d)), ((-w, d), (-w, -d))):
             builder.wall(start, end, height, upper, material=builder.material("wall"))
     if layout.roof:
@@ -303,8 +307,8 @@ def building(seed: int = 2) -> WorldSource:
         "main": {"waypoints": main_route(layout), "loop": True}}})
 
 
-GENERATOR_VERSION = 2  # what ``gen:SEED`` draws from; ``genN:SEED`` names version N
-GENERATOR_VERSIONS = (1, 2)
+GENERATOR_VERSION = 3  # what ``gen:SEED`` draws from; ``genN:SEED`` names version N
+GENERATOR_VERSIONS = (1, 2, 3)
 
 
 def generated(seed: int, version: int = GENERATOR_VERSION) -> WorldSource:
@@ -319,7 +323,7 @@ def generated(seed: int, version: int = GENERATOR_VERSION) -> WorldSource:
         raise ValueError(f"seed={seed!r}: must be a non-negative integer")
     if version not in GENERATOR_VERSIONS:
         raise ValueError(f"version={version!r}: the generator's versions are {GENERATOR_VERSIONS}")
-    return _generated_1(int(seed)) if version == 1 else _generated_2(int(seed))
+    return _generated_1(int(seed)) if version == 1 else _generated_2(int(seed), version)
 
 
 def _generated_1(seed: int) -> WorldSource:
@@ -363,8 +367,12 @@ BRIGHTNESS = (0.45, 1.3)  # times the built-in worlds' lights
 CORRIDOR_SHARE = 0.35  # of levels: a block of rooms with a corridor around it instead of an open hall
 
 
-def _generated_2(seed: int) -> WorldSource:
-    """Generator version 2 (``gen:SEED``, ``gen2:SEED``): the distribution the generalization benchmark draws.
+def _generated_2(seed: int, version: int = 2) -> WorldSource:
+    """Generator versions 2 (``gen2:SEED``) and 3 (``gen:SEED``, ``gen3:SEED``): the distribution the
+    generalization benchmark draws. Version 3 draws the same world as version 2 and builds it without coplanar
+    faces of different materials (:class:`~.builder.WorldBuilder`'s ``coplanar_free``: a ramp's side walls
+    stood in the outer walls, and the walls' tops lay in the floors above them, each pair flickering in the
+    camera's images); its MJCF differs only there and in its model name.
 
     - **Levels**: 2, 3 or 4 (probabilities 0.4, 0.35, 0.25), 2.6–3.4 m apart; ramps of 5–12 degrees
       (uniform), so the footprint's depth (ramp plus turning space, 9–17 m more) runs from about 22 to 56 m,
@@ -400,8 +408,8 @@ def _generated_2(seed: int) -> WorldSource:
     corridors = [bool(rng.uniform() < CORRIDOR_SHARE) for _ in layout.levels]
     brightness = float(rng.uniform(*BRIGHTNESS))
     markings = bool(rng.uniform() < 0.5)
-    name = f"gen2:{seed}"
-    builder = WorldBuilder(name, int(rng.integers(2**31)))
+    name = f"gen{version}:{seed}"
+    builder = WorldBuilder(name, int(rng.integers(2**31)), coplanar_free=version >= 3)
     builder.lighting(brightness)
     floors = [builder.floor_material(style) for style in floor_styles]
     ramps = [builder.floor_material(style, kind="ramp") for style in ramp_styles]

@@ -173,8 +173,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2, help="drives at once (default: 2)")
     parser.add_argument("--worlds", nargs="+", help="other worlds instead of the benchmark's (gen:A-B ranges too)")
     parser.add_argument("--generator", type=int, choices=GENERATOR_VERSIONS, default=GENERATOR_VERSION,
-                        help=f"the world generator's version (default: the latest, {GENERATOR_VERSION}; 1 gives the "
-                             "worlds measured before version 2)")
+                        help=f"the world generator's version (default: the latest, {GENERATOR_VERSION}; 1 and 2 give "
+                             "the worlds measured before versions 2 and 3)")
     parser.add_argument("--grid", nargs="+", default=[], metavar="FIELD=VALUE",
                         help="one configuration setting over the default preset (one value per field)")
     args = parser.parse_args(argv)

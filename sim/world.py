@@ -11,7 +11,7 @@ Each waypoint's z is the floor height there; the robot starts at the first waypo
 the first route is the default. Without ``levels`` the floor heights are the distinct waypoint heights.
 
 World names: a built-in name (``carpark``, ``urban``, ``building``), ``gen:SEED`` for a generated world
-(the generator's latest version; ``gen1:SEED``, ``gen2:SEED`` name a version, so a seed's world stays the
+(the generator's latest version; ``gen1:SEED`` to ``gen3:SEED`` name a version, so a seed's world stays the
 same when the generator changes), or a path to an MJCF file.
 """
 

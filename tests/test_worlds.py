@@ -244,6 +244,8 @@ def _visible_coplanar_faces(xml: str) -> list[tuple[str, str, float]]:
     centres, rotations = data.geom_xpos[boxes], data.geom_xmat[boxes].reshape(-1, 3, 3)
     halves = model.geom_size[boxes]
     planes = [data.geom_xpos[g][2] for g in range(model.ngeom) if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE]
+    ground_floor = model.geom("floor0").id  # a generated world's footprint, and its lowest floor at z = 0
+    footprint_centre, footprint_half = data.geom_xpos[ground_floor][:2], model.geom_size[ground_floor][:2]
     faces = []  # (box index, normal, offset, centre, (axis, half) x 2)
     for index in range(len(boxes)):
         for axis in range(3):
@@ -270,10 +272,8 @@ def _visible_coplanar_faces(xml: str) -> list[tuple[str, str, float]]:
             front = shared + 0.005 * normal
             local = np.einsum("bji,pbj->pbi", rotations, front[:, None, :] - centres[None])
             covered = np.all(np.abs(local) <= halves[None], axis=2).any(axis=1)
-            covered |= np.array([any(point[2] < plane for plane in planes) for point in front], dtype=bool)
-            ground_floor = model.geom("floor0").id
-            offset = np.abs(front[:, :2] - data.geom_xpos[ground_floor][:2])
-            inside = np.all(offset <= model.geom_size[ground_floor][:2], axis=1)
+            covered |= (front[:, 2:3] < np.array(planes)[None, :]).any(axis=1)  # under a ground plane
+            inside = np.all(np.abs(front[:, :2] - footprint_centre) <= footprint_half, axis=1)
             covered |= (front[:, 2] < 0.0) | ~inside  # under the ground floor (level 0) or outside the footprint
             if not covered.all():
                 area = (~covered).mean() * len(shared) / len(points) * 4 * h1 * k1

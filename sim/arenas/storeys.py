@@ -371,8 +371,9 @@ def _generated_2(seed: int, version: int = 2) -> WorldSource:
     """Generator versions 2 (``gen2:SEED``) and 3 (``gen:SEED``, ``gen3:SEED``): the distribution the
     generalization benchmark draws. Version 3 draws the same world as version 2 and builds it without coplanar
     faces of different materials (:class:`~.builder.WorldBuilder`'s ``coplanar_free``: a ramp's side walls
-    stood in the outer walls, and the walls' tops lay in the floors above them, each pair flickering in the
-    camera's images); its MJCF differs only there and in its model name.
+    stood in the outer walls, the walls' tops lay in the floors above them and a wall's end in the face of the
+    wall it met, each pair flickering in the camera's images); its MJCF differs only there and in its model
+    name.
 
     - **Levels**: 2, 3 or 4 (probabilities 0.4, 0.35, 0.25), 2.6–3.4 m apart; ramps of 5–12 degrees
       (uniform), so the footprint's depth (ramp plus turning space, 9–17 m more) runs from about 22 to 56 m,

@@ -42,8 +42,9 @@ def confirm_place(
     mapped: horizontally within ``tolerance``, vertically within ``tolerance`` plus ``climb_error`` times
     the horizontal distance between that frame and the current one (the odometry's heights drift faster
     than its positions). A view whose eligible experiences within ``radius`` of where the frame could be
-    spread over more than ``3 * tolerance`` (seen along a uniform street, or at several places) is no
-    evidence and never agrees. Hypotheses with at least ``matches`` agreeing frames are confirmed; the one
+    spread over more than ``2 * tolerance`` (seen along a uniform street, or at several places) is no
+    evidence and never agrees: two such places are as far apart as two places the rival test below calls
+    distinct, and the view cannot tell them apart (a corridor whose look repeats every 2–3 m). Hypotheses with at least ``matches`` agreeing frames are confirmed; the one
     whose agreeing frames fit best wins (the least mean distance from where it maps them to their views'
     experiences: a view seen over a metre or two also agrees, less closely, with a hypothesis shifted along
     the path by that much, which the robot's drifting estimate cannot tell apart), unless another
@@ -103,7 +104,7 @@ def confirm_place(
         gaps = np.linalg.norm(mapped[:, None, :2] - map_poses[None, places, :2], axis=2)
         reach = gaps.min(axis=0) <= radius  # where this frame could be
         extent = np.ptp(map_poses[places[reach], :2], axis=0) if reach.any() else np.zeros(2)
-        if math.hypot(*extent) > 3 * tolerance:
+        if math.hypot(*extent) > 2 * tolerance:
             continue  # a view seen along many metres (or at several places) within reach says little
         if len(alternatives):
             places = np.unique(np.concatenate([places, *(experiences_of(int(other)) for other in alternatives)]))

@@ -44,8 +44,9 @@ def confirm_place(
     than its positions). A view whose eligible experiences within ``radius`` of where the frame could be
     spread over more than ``2 * tolerance`` (seen along a uniform street, or at several places) is no
     evidence and never agrees: two such places are as far apart as two places the rival test below calls
-    distinct, and the view cannot tell them apart (a corridor whose look repeats every 2–3 m). Hypotheses with at least ``matches`` agreeing frames are confirmed; the one
-    whose agreeing frames fit best wins (the least mean distance from where it maps them to their views'
+    distinct, and the view cannot tell them apart (a corridor whose look repeats every 2–3 m).
+    Hypotheses with at least ``matches`` agreeing frames are confirmed; the one whose agreeing frames
+    fit best wins (the least mean distance from where it maps them to their views'
     experiences: a view seen over a metre or two also agrees, less closely, with a hypothesis shifted along
     the path by that much, which the robot's drifting estimate cannot tell apart), unless another
     confirmed one lies more than ``2 * tolerance`` from it (a place that several parts of the map explain

@@ -200,3 +200,25 @@ def test_other_templates_the_views_matched_are_evidence_but_make_no_hypotheses()
     current_look_alike = best.copy()
     current_look_alike[-1] = 35
     assert confirm(current_look_alike, alternatives[:-1] + [(int(right[-1]),)]) == -1
+
+
+def test_a_corridor_whose_look_repeats_every_two_and_a_half_metres_is_no_evidence():
+    """Along a straight corridor each view was also seen 2.5 m further on, and the current view matched only
+    the look-alike further on (the place the robot is at was seen with another view). The window agrees
+    with that look-alike as well as with the truth, so it cannot say which: nothing is confirmed (a loop
+    closed there would be 2.5 m off). Without the repeats, the place is confirmed."""
+    themap = _Map(_path(60, turn_at=100))  # straight east
+    odometry, templates = _revisit(themap, 30)
+    window = slice(10, 30)
+    current = int(templates[29])
+
+    def repeating(template):
+        own = themap.experiences_of(template)
+        further = own + 5  # 5 × 0.5 m on
+        return further if template == current else np.concatenate([own, further])
+
+    eligible = np.ones(len(themap.poses), dtype=bool)
+    assert confirm_place(odometry[window], templates[window], 0.0, themap.poses, themap.experiences_of, eligible,
+                         themap.poses[29], radius=5.0, tolerance=1.0, matches=16) in (28, 29)
+    assert confirm_place(odometry[window], templates[window], 0.0, themap.poses, repeating, eligible,
+                         themap.poses[29], radius=5.0, tolerance=1.0, matches=16) == -1

@@ -46,9 +46,9 @@ def confirm_place(
     evidence and never agrees: two such places are as far apart as two places the rival test below calls
     distinct, and the view cannot tell them apart (a corridor whose look repeats every 2–3 m).
     Hypotheses with at least ``matches`` agreeing frames are confirmed; the one whose agreeing frames
-    fit best wins (the least mean distance from where it maps them to their views'
-    experiences: a view seen over a metre or two also agrees, less closely, with a hypothesis shifted along
-    the path by that much, which the robot's drifting estimate cannot tell apart), unless another
+    fit best wins (the least mean distance from where it maps them to their views' experiences: a view
+    seen over a metre or two also agrees, less closely, with a hypothesis shifted along the path by that
+    much, which the robot's drifting estimate cannot tell apart), unless another
     confirmed one lies more than ``2 * tolerance`` from it (a place that several parts of the map explain
     equally is not confirmed; rivals are looked for up to ``2 * tolerance`` beyond the radii, since the
     estimate that centres the radii has drifted: a wrong place inside them must not win because the right

@@ -30,7 +30,6 @@ def confirm_place(
     tolerance: float,
     matches: int,
     climb_error: float = 0.0,
-    drift: float = 0.0,
     height_radius: float | None = None,
     window_alternatives: Sequence[Sequence[int]] | None = None,
 ) -> int:
@@ -42,15 +41,10 @@ def confirm_place(
     frame agrees when an eligible experience of its view lies within ``tolerance`` of where it is
     mapped: horizontally within ``tolerance``, vertically within ``tolerance`` plus ``climb_error`` times
     the horizontal distance between that frame and the current one (the odometry's heights drift faster
-    than its positions). A view whose eligible experiences near where the hypotheses map the frame
+    than its positions). A view whose eligible experiences within ``radius`` of where the frame could be
     spread over more than ``2 * tolerance`` (seen along a uniform street, or at several places) is no
     evidence and never agrees: two such places are as far apart as two places the rival test below calls
-    distinct, and the view cannot tell them apart (a corridor whose look repeats every 2–3 m). Near means
-    within ``radius`` of where some hypothesis maps the frame, and at most ``3 * tolerance + drift * d``,
-    d the frame's distance from the current one in the odometry: the places a hypothesis off by the
-    rival test's ``2 * tolerance`` would find within its ``tolerance``, widened by the odometry's drift
-    over d. A look-alike farther off (another corridor tens of metres away, within a search radius grown
-    by a long drive without a loop closure) is told apart by the window's arrangement, or is a rival.
+    distinct, and the view cannot tell them apart (a corridor whose look repeats every 2–3 m).
     Hypotheses with at least ``matches`` agreeing frames are confirmed; the one whose agreeing frames
     fit best wins (the least mean distance from where it maps them to their views' experiences: a view
     seen over a metre or two also agrees, less closely, with a hypothesis shifted along the path by that
@@ -77,7 +71,6 @@ def confirm_place(
         robot: (4,) the robot's current estimate in the map.
         radius, tolerance, height_radius: m. matches: frames that must agree (the current frame counts).
         climb_error: m of height per m of travel the window's odometry may be off by.
-        drift: m per m of travel the window's odometry may be off by horizontally (widens "near" above).
         window_alternatives: per window frame, the other template ids its view matched (may be empty).
     """
     window_poses = np.asarray(window_poses, dtype=float)
@@ -110,10 +103,10 @@ def confirm_place(
         mapped = np.stack([map_poses[hypotheses, 0] + cos * dx - sin * dy,
                            map_poses[hypotheses, 1] + sin * dx + cos * dy, map_poses[hypotheses, 2] + dz], axis=1)
         gaps = np.linalg.norm(mapped[:, None, :2] - map_poses[None, places, :2], axis=2)
-        reach = gaps.min(axis=0) <= min(radius, 3 * tolerance + drift * math.hypot(dx, dy))
+        reach = gaps.min(axis=0) <= radius  # where this frame could be
         extent = np.ptp(map_poses[places[reach], :2], axis=0) if reach.any() else np.zeros(2)
         if math.hypot(*extent) > 2 * tolerance:
-            continue  # a view seen along many metres (or at several places) nearby says little
+            continue  # a view seen along many metres (or at several places) within reach says little
         if len(alternatives):
             places = np.unique(np.concatenate([places, *(experiences_of(int(other)) for other in alternatives)]))
             places = places[eligible[places]]

@@ -481,7 +481,7 @@ class NeuroSLAM:
             radius=config.confirmation_tolerance + config.confirmation_drift * self._since_closure,
             height_radius=config.confirmation_tolerance + config.confirmation_climb_error * self._since_closure,
             tolerance=config.confirmation_tolerance, matches=config.confirmation_matches,
-            climb_error=config.confirmation_climb_error, drift=config.confirmation_drift)
+            climb_error=config.confirmation_climb_error)
 
     def _is_old(self, experience: int, time: float) -> bool:
         """One experience's entry of :meth:`_old` (without computing the others)."""
@@ -617,8 +617,7 @@ class NeuroSLAM:
             place = confirm_place(poses, templates, relative_yaw, themap.poses, themap.experiences_of,
                                   themap.components == component, themap.robot_pose(), radius=math.inf,
                                   height_radius=math.inf, tolerance=config.confirmation_tolerance,
-                                  matches=config.confirmation_matches, climb_error=config.confirmation_climb_error,
-                                  drift=config.confirmation_drift)
+                                  matches=config.confirmation_matches, climb_error=config.confirmation_climb_error)
             if place >= 0:
                 found.append(place)
         return found[0] if len(found) == 1 else -1

@@ -183,6 +183,9 @@ class GroundMotion:
         self.near_tolerance = near_tolerance
         self.levels = levels
         self.motion = np.zeros(2)  # (d, w) of the last frame: m, rad
+        # the prior's weight on the distance in eq. G3, as a share of (robust_scale / s_d)^2: 1 where the last
+        # frame's distance was observed; the odometry lowers it while the distance goes unobserved
+        self.distance_certainty = 1.0
         self.support = 0.0  # share of floor pixels that stayed in view and were used, last frame
         # the floor's information on (d, w) at the last frame's solution (Σ w J², data term only), as
         # multiples of the prior's weights (robust_scale / s_d)², (robust_scale / s_w)²
@@ -396,9 +399,10 @@ class GroundMotion:
             data_distance = float(wd @ residual)
             if seen < self.min_information * weight_distance:  # the floor does not see the distance: the prior's
                 a11 = a12 = data_distance = 0.0
-            b1 = data_distance + weight_distance * (distance - prior_distance)
+            prior_weight = weight_distance * self.distance_certainty
+            b1 = data_distance + prior_weight * (distance - prior_distance)
             b2 = float(wt @ residual) + weight_turn * (turn - prior_turn)
-            n11, n22 = a11 + weight_distance, a22 + weight_turn
+            n11, n22 = a11 + prior_weight, a22 + weight_turn
             determinant = n11 * n22 - a12 * a12  # positive: the prior keeps the 2 x 2 system regular
             delta_distance = -(n22 * b1 - a12 * b2) / determinant
             delta_turn = -(n11 * b2 - a12 * b1) / determinant

@@ -253,6 +253,7 @@ class VisualOdometry:
         # where nothing observes the distance, this speed is held (odometry.blind_hold)
         self._held_speed = 0.0  # m/s, the last observed speed
         self._blind_for = math.inf  # s since the distance was last observed (inf: never)
+        self._unobserved = 0  # frames since the distance was last observed (off transitions)
         # the metric scale of the upper image's expansion (m per unit), learnt where the floor sees the
         # distance: running sums of d e and e² (eq. S1 of the module docstring)
         self._scale_sums = np.zeros(3)
@@ -302,6 +303,7 @@ class VisualOdometry:
                           "transitions.yaw": np.float64(self._alignment.yaw),
                           "observed.held_speed": np.float64(self._held_speed),
                           "observed.blind_for": np.float64(self._blind_for),
+                          "observed.unobserved": np.int64(self._unobserved),
                           "observed.scale_sums": self._scale_sums.copy(),
                           "observed.ceiling_sums": self._ceiling_sums.copy(),
                           "observed.ceiling_countdown": np.int64(self._ceiling_countdown)})
@@ -332,6 +334,7 @@ class VisualOdometry:
             # a map saved before the odometry reported what it observed starts blind, with no scale
             self._held_speed = float(state.get("observed.held_speed", 0.0))
             self._blind_for = float(state.get("observed.blind_for", math.inf))
+            self._unobserved = int(state.get("observed.unobserved", 0))
             self._scale_sums = np.asarray(state.get("observed.scale_sums", np.zeros(3)), dtype=float).copy()
             self._ceiling_sums = np.asarray(state.get("observed.ceiling_sums", np.zeros(3)), dtype=float).copy()
             self._ceiling_countdown = int(state.get("observed.ceiling_countdown", 0))
@@ -398,6 +401,8 @@ class VisualOdometry:
         profiles = self._profiles(grey_image)
         previous, self._previous = self._previous, profiles
         self._ceiling_previous = None if self._ground is None else self._ground.pyramid
+        if self._ground is not None:  # eq. G3's prior on the distance loosens while nothing observes it
+            self._ground.distance_certainty = 1.0 / (1 + self._unobserved)
         ground = None if self._ground is None else self._ground.step(grey_image)
         finest_before = self._finest
         if self._alignment is not None:
@@ -605,11 +610,12 @@ class VisualOdometry:
             if distance is None and floor_sees:
                 distance, distance_source = floor_distance, "floor"
         if distance is not None:
-            self._held_speed, self._blind_for = distance / dt, 0.0
+            self._held_speed, self._blind_for, self._unobserved = distance / dt, 0.0, 0
         else:  # nothing sees the distance: the last speed, for blind_hold seconds
             self._blind_for += dt
             held = self._blind_for <= config.blind_hold
             distance, distance_source = (self._held_speed * dt, "held") if held else (0.0, "none")
+            self._unobserved += 1
         if yaw is None:  # nothing sees the yaw: no turn (a held turn rate measured 1.3° a frame off)
             yaw, yaw_source = 0.0, "none"
         if distance_source != "floor" or yaw_source != "floor":

@@ -112,6 +112,23 @@ def test_a_blank_lane_beside_a_wall_takes_the_distance_from_the_walls_feet():
     assert all(item.distance == "floor" and item.yaw == "image" for item in observed[1:])
 
 
+def test_a_faint_floor_seen_after_a_blind_stretch_reads_the_speed_from_its_first_frames():
+    # 11 m of blank floor under the sky (nothing observes the distance: it is held, then none), then faint
+    # blobs whose information on the distance is 0.3-1.1 of the prior's weight over its first frames. Eq. G3's
+    # prior is the last speed taken (0 after the hold), loosened by the frames it went unobserved, so the data
+    # speaks: 0.091-0.098 m a frame measured (a prior at full weight read 0.023, 0.046, 0.067, 0.082, 0.092)
+    scene = Scene(floor=Texture("blobs", level=0.5, contrast=0.06, scale=0.3, blank_beyond=0.0), walls=None,
+                  ceiling=None)
+    path = arc_path([(16.0, 0.0)], start=(14.0, -1.0, math.pi))  # driving towards -x: the blobs come last
+    motions, observed = drive(scene, path)
+    sources = [item.distance for item in observed[1:]]
+    first = sources.index("floor")
+    assert first > 100 and sources[first - 1] == "none"  # blind for longer than odometry.blind_hold
+    read = motions[1 + first: 1 + first + 5, 0]
+    assert sources[first: first + 5] == ["floor"] * 5
+    assert np.all(np.abs(read - 0.1) <= 0.01)
+
+
 def test_an_open_sky_above_a_textured_floor():
     motions, observed = drive(Scene(ceiling=None, walls=None), TURN)
     distance, turn = truth(TURN)

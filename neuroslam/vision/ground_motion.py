@@ -18,7 +18,14 @@ before. The motion (d, w) minimises the robust (Huber) photometric error
     E(d, w) = sum_q rho(I_prev(pi(p)) - I_now(pi(q))) + (d - d0)^2 / s_d^2 + (w - w0)^2 / s_w^2   (G3)
 
 over the floor pixels below the horizon (pi: eq. G1; (d0, w0): the previous frame's motion, a
-constant-velocity prior that keeps the estimate where the floor shows too little texture). Where the floor
+constant-velocity prior that keeps the estimate where the floor shows too little texture). Its variance on
+the distance grows by s_d^2 with each frame whose distance nothing observed (n frames: held or none, see
+:class:`~neuroslam.vision.odometry.Observed`), so the distance term weighs
+
+    (d - d0)^2 / ((1 + n) s_d^2)                                                                  (G3a)
+
+(:attr:`GroundMotion.distance_certainty` = 1 / (1 + n)): a floor seen again after a blank stretch reads its
+own distance, not the stale (or zero) speed held over the stretch. Where the floor
 says almost nothing about the distance (its information on d, the Gauss–Newton normal entry sum w J_d^2,
 is below ``min_information`` times the prior's weight: a uniform floor whose only marks run along the
 path), the distance is the prior's and only the yaw is solved. There the image does not change from
@@ -184,7 +191,7 @@ class GroundMotion:
         self.levels = levels
         self.motion = np.zeros(2)  # (d, w) of the last frame: m, rad
         # the prior's weight on the distance in eq. G3, as a share of (robust_scale / s_d)^2: 1 where the last
-        # frame's distance was observed; the odometry lowers it while the distance goes unobserved
+        # frame's distance was observed; the odometry lowers it while the distance goes unobserved (eq. G3a)
         self.distance_certainty = 1.0
         self.support = 0.0  # share of floor pixels that stayed in view and were used, last frame
         # the floor's information on (d, w) at the last frame's solution (Σ w J², data term only), as

@@ -401,7 +401,7 @@ class VisualOdometry:
         profiles = self._profiles(grey_image)
         previous, self._previous = self._previous, profiles
         self._ceiling_previous = None if self._ground is None else self._ground.pyramid
-        if self._ground is not None:  # eq. G3's prior on the distance loosens while nothing observes it
+        if self._ground is not None:  # eq. G3a: eq. G3's prior on the distance loosens while nothing observes it
             self._ground.distance_certainty = 1.0 / (1 + self._unobserved)
         ground = None if self._ground is None else self._ground.step(grey_image)
         finest_before = self._finest

@@ -35,6 +35,7 @@ from scipy.sparse import coo_matrix
 
 from neuroslam.datasets import read_groundtruth
 from neuroslam.evaluation.trajectory import ate_rmse
+from neuroslam.geometry import relative, wrap
 
 STEP = 10  # frames per node: 1 m at the testbed's 1 m/s and 10 frames/s
 RADIUS = 1.0  # m, how near an earlier node a revisit must pass (the confirmation tolerance)
@@ -44,21 +45,13 @@ CLOSURE_WEIGHT = 0.1  # ExperienceMapConfig.closure_weight
 HALVES, MEETS_HALVES = TARGETS["halves"]  # the generalization benchmark's target: its words and its test
 
 
-def _relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Each pose of ``b`` in the frame of the matching pose of ``a`` (x, y in a's heading, z, yaw)."""
-    d = b[:, :3] - a[:, :3]
-    c, s = np.cos(a[:, 3]), np.sin(a[:, 3])
-    turn = np.angle(np.exp(1j * (b[:, 3] - a[:, 3])))
-    return np.c_[c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], d[:, 2], turn]
-
-
 def revisits(truth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(earlier, later) node indices where the robot truly came back facing the same way (see the module)."""
     earlier, later = [], []
     for node in range(SEPARATION, len(truth), 3):
         before = truth[: node - SEPARATION]
         near = np.linalg.norm(before[:, :3] - truth[node, :3], axis=1)
-        turned = np.abs(np.angle(np.exp(1j * (before[:, 3] - truth[node, 3]))))
+        turned = np.abs(wrap(before[:, 3] - truth[node, 3]))
         candidates = np.flatnonzero((near < RADIUS) & (turned < HEADING))
         if len(candidates):
             earlier.append(int(candidates[np.argmin(near[candidates])]))
@@ -72,7 +65,7 @@ def reference_map(odometry: np.ndarray, truth: np.ndarray) -> tuple[np.ndarray, 
     earlier, later = revisits(truth)
     sources = np.r_[np.arange(n - 1), earlier]
     targets = np.r_[np.arange(1, n), later]
-    measured = np.vstack([_relative(odometry[:-1], odometry[1:]), _relative(truth[earlier], truth[later])])
+    measured = np.vstack([relative(odometry[:-1], odometry[1:]), relative(truth[earlier], truth[later])])
     weights = np.sqrt(np.r_[np.ones(n - 1), np.full(len(earlier), CLOSURE_WEIGHT)])
     links = len(sources)
 
@@ -84,7 +77,7 @@ def reference_map(odometry: np.ndarray, truth: np.ndarray) -> tuple[np.ndarray, 
             (a[:, 0] + c * measured[:, 0] - s * measured[:, 1] - b[:, 0]) * weights,
             (a[:, 1] + s * measured[:, 0] + c * measured[:, 1] - b[:, 1]) * weights,
             (a[:, 2] + measured[:, 2] - b[:, 2]) * weights,
-            np.angle(np.exp(1j * (a[:, 3] + measured[:, 3] - b[:, 3]))) * weights,
+            wrap(a[:, 3] + measured[:, 3] - b[:, 3]) * weights,
             (poses[0] - odometry[0]) * 100.0])  # the first node holds the graph in place
 
     rows, columns = [], []

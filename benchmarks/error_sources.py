@@ -31,18 +31,16 @@ from tqdm import tqdm
 
 from neuroslam import presets
 from neuroslam.config import load_config
+from neuroslam.geometry import relative as relative_pose
+from neuroslam.geometry import wrap
 from neuroslam.slam import NeuroSLAM
 from neuroslam.vision.preprocessing import grey
-
-
-def _wrap(angle: np.ndarray) -> np.ndarray:
-    return (angle + np.pi) % (2 * np.pi) - np.pi
 
 
 def odometry_rows(distances: np.ndarray, yaw_changes: np.ndarray, poses: np.ndarray, levels: np.ndarray) -> list[str]:
     """One printed row per true level: distance ratio, worst stretch, collapses, yaw error sum and RMS."""
     true_distance = np.r_[0.0, np.linalg.norm(np.diff(poses[:, :3], axis=0), axis=1)]
-    yaw_error = np.degrees(_wrap(yaw_changes - np.r_[0.0, _wrap(np.diff(poses[:, 3]))]))
+    yaw_error = np.degrees(wrap(yaw_changes - np.r_[0.0, wrap(np.diff(poses[:, 3]))]))
     rows = []
     for level in np.unique(levels):
         frames = np.flatnonzero(levels == level)
@@ -65,11 +63,8 @@ def closure_errors(closures: list[tuple[int, int, np.ndarray]], creation_frames:
     errors = []
     for frame, experience, relative in closures:
         then, now = poses[creation_frames[experience]], poses[frame]
-        c, s = np.cos(then[3]), np.sin(then[3])
-        dx, dy = now[0] - then[0], now[1] - then[1]
-        true = np.array([c * dx + s * dy, -s * dx + c * dy, now[2] - then[2], _wrap(now[3] - then[3])])
-        error = relative - true
-        error[3] = _wrap(error[3])
+        error = relative - relative_pose(then, now)
+        error[3] = wrap(error[3])
         errors.append(error)
     return np.array(errors).reshape(-1, 4)
 

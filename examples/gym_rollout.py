@@ -17,6 +17,7 @@ import gymnasium as gym
 import numpy as np
 
 import sim  # registers the NeuroSLAM/... environments
+from neuroslam import geometry
 from neuroslam.wrappers import NeuroSLAMWrapper
 
 steps = int(os.environ.get("NEUROSLAM_EXAMPLE_FRAMES", "0")) or 400
@@ -33,12 +34,10 @@ for step in range(steps):
     observation, reward, terminated, truncated, info = env.step(action)
     if step % 50 == 49 or step == steps - 1:
         # the SLAM starts at its own origin facing +x: compare in the start's frame
-        relative = np.array(info["pose"][:2]) - start[:2]
-        c, s = math.cos(-start[3]), math.sin(-start[3])
-        truth = np.array([c * relative[0] - s * relative[1], s * relative[0] + c * relative[1]])
-        error = np.linalg.norm(np.array(info["slam_pose"][:2]) - truth)
+        truth = geometry.relative(start, np.array(info["pose"]))
+        error = np.linalg.norm(np.array(info["slam_pose"][:2]) - truth[:2])
         print(f"step {step + 1:4d}: experience {info['slam_experience_id']:4d}, "
-              f"SLAM position error {error:.2f} m after {np.linalg.norm(relative):.1f} m from the start")
+              f"SLAM position error {error:.2f} m after {np.linalg.norm(truth[:2]):.1f} m from the start")
     if terminated or truncated:
         break
 env.close()

@@ -676,6 +676,7 @@ def _calibrate(args: argparse.Namespace) -> int:
 
     import sim
 
+    from .geometry import wrap
     from .vision.calibration import fit_odometry_gains
     from .vision.odometry import VisualOdometry
     from .vision.preprocessing import grey
@@ -700,8 +701,7 @@ def _calibrate(args: argparse.Namespace) -> int:
             motion = odometry.step(grey(frame.image), dt)
             truth = frame.ground_truth
             if previous is not None:
-                turn = math.atan2(math.sin(truth.yaw - previous.ground_truth.yaw),
-                                  math.cos(truth.yaw - previous.ground_truth.yaw))
+                turn = wrap(truth.yaw - previous.ground_truth.yaw)
                 rows.append((dt, motion.forward_speed * dt, motion.yaw_rate, odometry.pitch - pitch_before,
                              float(np.hypot(*truth.velocity[:2])), turn / dt, truth.position[2]))
             previous = frame

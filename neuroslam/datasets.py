@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import NeuroSLAMError
+from .geometry import wrap
 
 __all__ = ["DESCRIPTION_FILE", "DatasetDescription", "DatasetError", "GroundTruth", "check_frame_sizes",
            "check_levels", "list_frames", "load_frame", "read_description", "read_groundtruth", "write_description"]
@@ -200,7 +201,7 @@ def read_groundtruth(path: str | Path) -> GroundTruth:
         yaw = np.arctan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy**2 + qz**2))
         return GroundTruth(table[:, 1:4], yaw, table[:, 0])
     if table.shape[1] == 7:
-        return GroundTruth(table[:, 1:4], np.arctan2(np.sin(table[:, 6]), np.cos(table[:, 6])), None)
+        return GroundTruth(table[:, 1:4], wrap(table[:, 6]), None)
     raise DatasetError(
         f"ground truth {str(path)!r}: {table.shape[1]} columns; expected 8 (TUM: t x y z qx qy qz qw) "
         "or 7 (CSV: frame,x,y,z,rx,ry,rz)"

@@ -24,6 +24,7 @@ import scipy.sparse.linalg
 
 from .cells.attractor import wrapped_distance
 from .config import ExperienceMapConfig
+from .geometry import compose, inverse, wrap
 
 __all__ = ["ExperienceMap", "MapUpdate"]
 
@@ -43,25 +44,6 @@ _STATE_ARRAYS = {
     "degree": ("_degree", 0, np.int64), "components": ("_components", 0, np.int64),
     "sessions": ("_sessions", 0, np.int64), "odometers": ("_odometers", 0, np.float64),
 }
-
-
-def _wrap(angle: np.ndarray | float) -> np.ndarray | float:
-    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
-
-
-def _compose_all(poses: np.ndarray, relative: np.ndarray) -> np.ndarray:
-    """Row by row, ``relative`` (x, y, z, yaw; m, rad, in each pose's frame) applied to ``poses``, (K, 4)."""
-    c, s = np.cos(poses[:, 3]), np.sin(poses[:, 3])
-    return np.stack([poses[:, 0] + c * relative[:, 0] - s * relative[:, 1],
-                     poses[:, 1] + s * relative[:, 0] + c * relative[:, 1],
-                     poses[:, 2] + relative[:, 2], _wrap(poses[:, 3] + relative[:, 3])], axis=1)
-
-
-def _invert_all(relative: np.ndarray) -> np.ndarray:
-    """Row by row, the relative pose that undoes ``relative`` (x, y, z, yaw), (K, 4)."""
-    c, s = np.cos(relative[:, 3]), np.sin(relative[:, 3])
-    return np.stack([-(c * relative[:, 0] + s * relative[:, 1]), -(-s * relative[:, 0] + c * relative[:, 1]),
-                     -relative[:, 2], -relative[:, 3]], axis=1)
 
 
 @dataclass(frozen=True)
@@ -307,10 +289,7 @@ class ExperienceMap:
         moved. Links are unchanged (they are relative); the map is relaxed by the loop closure that follows."""
         moved = np.flatnonzero(self.components == component)
         poses = self._poses.data[moved]
-        c, s = math.cos(yaw), math.sin(yaw)
-        self._poses.data[moved] = np.stack([c * poses[:, 0] - s * poses[:, 1] + translation[0],
-                                            s * poses[:, 0] + c * poses[:, 1] + translation[1],
-                                            poses[:, 2] + translation[2], _wrap(poses[:, 3] + yaw)], axis=1)
+        self._poses.data[moved] = compose(np.array([*translation[:3], yaw]), poses)
         self._grid_codes.data[moved] = grid_codes
         self._direction_codes.data[moved] = direction_codes
         self._components.data[moved] = into
@@ -341,7 +320,7 @@ class ExperienceMap:
         remap = (np.cumsum(keep) - 1)[replacement]
         if self.current >= 0:
             robot = self.robot_pose()
-            self.relative = self._compose(self._invert(self.poses[replacement[self.current]]), robot)
+            self.relative = compose(inverse(self.poses[replacement[self.current]]), robot)
             self.current = int(remap[self.current])
         links = remap[self.links]
         joined = links[:, 0] != links[:, 1]
@@ -376,11 +355,11 @@ class ExperienceMap:
         relative = np.stack([distance * np.cos(heading), distance * np.sin(heading), height, facing], axis=1)
         sources, targets = links[moved, 0], links[moved, 1]
         # the old source seen from the new one, then the link, then on from the old target to the new one
-        relative = _compose_all(_compose_all(_invert_all(poses[replacement[sources]]), poses[sources]), relative)
-        relative = _compose_all(relative, _compose_all(_invert_all(poses[targets]), poses[replacement[targets]]))
+        relative = compose(compose(inverse(poses[replacement[sources]]), poses[sources]), relative)
+        relative = compose(relative, compose(inverse(poses[targets]), poses[replacement[targets]]))
         self._link_poses.data[moved] = np.stack([np.hypot(relative[:, 0], relative[:, 1]),
                                                  np.arctan2(relative[:, 1], relative[:, 0]),
-                                                 _wrap(relative[:, 3]), relative[:, 2]], axis=1)
+                                                 wrap(relative[:, 3]), relative[:, 2]], axis=1)
 
     def absorb(self, other: ExperienceMap, template_offset: int, component_offset: int) -> None:
         """Append another map's experiences and links (a second loaded map) as components and sessions of
@@ -403,7 +382,7 @@ class ExperienceMap:
         """The robot's pose in the map: the current experience composed with the odometry since it."""
         if self.current < 0:
             return self.relative.copy()
-        return self._compose(self.poses[self.current], self.relative)
+        return compose(self.poses[self.current], self.relative)
 
     def _offset(self, experience: int, grid_code: np.ndarray, direction_code: np.ndarray) -> np.ndarray:
         """Where the robot is relative to ``experience``, from the difference of their codes: the grid-cell
@@ -417,20 +396,6 @@ class ExperienceMap:
         turn = ((direction_code[0] - self.direction_codes[experience, 0] + yaw_cells / 2) % yaw_cells - yaw_cells / 2)
         return np.array([c * metres[0] + s * metres[1], -s * metres[0] + c * metres[1], metres[2],
                          turn * 2 * math.pi / yaw_cells])
-
-    @staticmethod
-    def _invert(relative: np.ndarray) -> np.ndarray:
-        """The relative pose that undoes ``relative`` (x, y, z, yaw)."""
-        x, y, z, yaw = relative
-        c, s = math.cos(yaw), math.sin(yaw)
-        return np.array([-(c * x + s * y), -(-s * x + c * y), -z, -yaw])
-
-    @staticmethod
-    def _compose(pose: np.ndarray, relative: np.ndarray) -> np.ndarray:
-        x, y, z, yaw = pose
-        c, s = math.cos(yaw), math.sin(yaw)
-        return np.array([x + c * relative[0] - s * relative[1], y + s * relative[0] + c * relative[1],
-                         z + relative[2], float(_wrap(yaw + relative[3]))])
 
     # per frame ----------------------------------------------------------------------------------------
     def integrate(self, distance: float, yaw_change: float, height_change: float, drift: float = 0.0) -> None:
@@ -514,11 +479,11 @@ class ExperienceMap:
         offset = self._offset(best, grid_code, direction_code)
         if closes_loop:
             # the robot is at previous ⊕ odometry and at best ⊕ offset, so best = previous ⊕ odometry ⊖ offset
-            self.relative = self._compose(self.relative, self._invert(offset))
+            self.relative = compose(self.relative, inverse(offset))
             # the loop's error: where the odometry puts the re-entered experience against where it is
-            expected = self._compose(self.poses[previous], self.relative)
+            expected = compose(self.poses[previous], self.relative)
             error = expected - self.poses[best]
-            error[3] = float(_wrap(error[3]))
+            error[3] = float(wrap(error[3]))
             self._link(previous, best, time, weight=self.config.closure_weight)
             self.loop_closures += 1
             trigger = LEAST_SQUARES_TRIGGER if self.config.relaxation == "least-squares" else SETTLED
@@ -564,7 +529,7 @@ class ExperienceMap:
         distance = math.hypot(dx, dy)
         heading = math.atan2(dy, dx) if distance > 0 else 0.0
         self._links.append((source, target))
-        self._link_poses.append((distance, heading, float(_wrap(dyaw)), dz))
+        self._link_poses.append((distance, heading, float(wrap(dyaw)), dz))
         # seconds on the session's clock; a link from an experience of an earlier session records 0
         self._link_times.append(time - self.creation_times[source] if self.sessions[source] == self.session else 0.0)
         self._link_weights.append(weight)
@@ -625,7 +590,7 @@ class ExperienceMap:
                 (poses[sources, 0] + cos - poses[targets, 0]) * root_weight,
                 (poses[sources, 1] + sin - poses[targets, 1]) * root_weight,
                 (poses[sources, 2] + height - poses[targets, 2]) * root_weight,
-                _wrap(poses[sources, 3] + facing - poses[targets, 3]) * root_weight]), cos, sin
+                wrap(poses[sources, 3] + facing - poses[targets, 3]) * root_weight]), cos, sin
 
         residual, cos, sin = residual_at(poses)
         cost = float(residual @ residual)
@@ -649,7 +614,7 @@ class ExperienceMap:
             for _halving in range(LEAST_SQUARES_HALVINGS):
                 trial = poses.copy()
                 trial[1:] += scale * step
-                trial[:, 3] = _wrap(trial[:, 3])
+                trial[:, 3] = wrap(trial[:, 3])
                 trial_residual, trial_cos, trial_sin = residual_at(trial)
                 trial_cost = float(trial_residual @ trial_residual)
                 if trial_cost <= cost:
@@ -692,7 +657,7 @@ class ExperienceMap:
                 x[sources] + distance * np.cos(direction) - x[targets],
                 y[sources] + distance * np.sin(direction) - y[targets],
                 z[sources] + height - z[targets],
-                _wrap(source_yaw + facing - yaw[targets]),
+                wrap(source_yaw + facing - yaw[targets]),
             )
             return errors, sum(float(error @ error) for error in errors)
 
@@ -711,7 +676,7 @@ class ExperienceMap:
             fraction = 1.0
             for _halving in range(PASS_HALVINGS):
                 trial = [values + fraction * step for values, step in zip((x, y, z, yaw), steps, strict=True)]
-                trial[3] = _wrap(trial[3])
+                trial[3] = wrap(trial[3])
                 trial_errors, trial_total = link_errors(*trial)
                 if trial_total <= total:
                     return trial, trial_errors, trial_total

@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from . import geometry
 from .errors import InvalidParameterError
 from .vision.odometry import SelfMotion
 from .vision.preprocessing import grey
@@ -111,21 +112,6 @@ class Episode:
     final_localisation_error_m: float
 
 
-def _compose(start: np.ndarray, relative: np.ndarray) -> np.ndarray:
-    """``start`` (x, y, z, yaw) composed with a pose relative to it."""
-    c, s = math.cos(start[3]), math.sin(start[3])
-    return np.array([start[0] + c * relative[0] - s * relative[1], start[1] + s * relative[0] + c * relative[1],
-                     start[2] + relative[2], math.remainder(start[3] + relative[3], 2 * math.pi)])
-
-
-def _relative(origin: np.ndarray, pose: np.ndarray) -> np.ndarray:
-    """``pose`` (x, y, z, yaw) in the frame of ``origin``."""
-    c, s = math.cos(origin[3]), math.sin(origin[3])
-    dx, dy = pose[0] - origin[0], pose[1] - origin[1]
-    return np.array([c * dx + s * dy, -s * dx + c * dy, pose[2] - origin[2],
-                     math.remainder(pose[3] - origin[3], 2 * math.pi)])
-
-
 class EpisodeRunner:
     """One episode's agent and pose source, fed by whoever steps the environment (a single environment or
     one slot of a vector environment): :meth:`begin` with the reset's observation and info, then
@@ -165,8 +151,8 @@ class EpisodeRunner:
             self.pose = np.array(info["pose"], dtype=float)
         elif self.pose_source == "odometry":  # the wheel encoders' (x, y, yaw) since the start
             origin, (x, y, yaw) = self.odometry_origin, np.array(info["odometry_pose"], dtype=float)
-            relative = _relative(np.array([origin[0], origin[1], 0.0, origin[2]]), np.array([x, y, 0.0, yaw]))
-            self.pose = _compose(self.start, relative)  # the wheels measure no height: the start's is kept
+            travelled = geometry.relative(np.array([origin[0], origin[1], 0.0, origin[2]]), np.array([x, y, 0.0, yaw]))
+            self.pose = geometry.compose(self.start, travelled)  # the wheels measure no height: the start's is kept
         else:  # the wheels' speed and turn rate, the camera's views and pitch (as drive --odometry wheel)
             time = float(info["time"])
             self.slam.visual_odometry.step(grey(observation["image"]), time - self.slam_time)
@@ -176,7 +162,7 @@ class EpisodeRunner:
             self.slam_time = time
             if estimate.merged:  # the estimate moved into the loaded map's frame: keep the pose continuous
                 self.slam_anchor, self.slam_origin = self.pose, estimate.pose.copy()
-            self.pose = _compose(self.slam_anchor, _relative(self.slam_origin, estimate.pose))
+            self.pose = geometry.compose(self.slam_anchor, geometry.relative(self.slam_origin, estimate.pose))
 
     def finish(self, info: dict) -> Episode:
         truth = np.array(info["pose"], dtype=float)

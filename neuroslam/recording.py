@@ -29,13 +29,13 @@ from __future__ import annotations
 
 import io
 import logging
-import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .errors import InvalidParameterError, NeuroSLAMError
+from .geometry import relative
 
 if TYPE_CHECKING:
     from .slam import Estimate, NeuroSLAM
@@ -262,11 +262,7 @@ class RunRecorder:
         """A true pose in the frame of the first true pose (where the SLAM estimate starts)."""
         if self._anchor is None:
             self._anchor = truth.copy()
-        x0, y0, z0, yaw0 = self._anchor
-        c, s = math.cos(yaw0), math.sin(yaw0)
-        dx, dy = truth[0] - x0, truth[1] - y0
-        yaw = math.atan2(math.sin(truth[3] - yaw0), math.cos(truth[3] - yaw0))
-        return np.array([c * dx + s * dy, -s * dx + c * dy, truth[2] - z0, yaw])
+        return relative(self._anchor, truth)
 
     def _log_heavy(self, slam: NeuroSLAM, estimate: Estimate) -> None:
         """The experience graph, the grid-cell and the head-direction activity."""

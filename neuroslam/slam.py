@@ -31,6 +31,7 @@ from .cells.grid_network import GridNetwork
 from .config import Config, load_config
 from .errors import InvalidInputError, InvalidParameterError
 from .experience_map import ExperienceMap, _Growing
+from .geometry import compose, relative, wrap
 from .loop_closure import confirm_place
 from .maps import MapFileError, read_map, write_map
 from .vision.local_view import LocalViewCells
@@ -201,7 +202,7 @@ class NeuroSLAM:
             travel = self._odometry_pose[3] + yaw_change / 2
             dx, dy = self.grid_network.integrate(distance, travel, dt)
             if distance > 0:
-                drift = math.remainder(math.atan2(dy, dx) - travel, 2 * math.pi)
+                drift = wrap(math.atan2(dy, dx) - travel)
         self.grid_cells.step((distance * math.cos(heading + drift), distance * math.sin(heading + drift), climb))
         grid_code = self.grid_cells.decode()
 
@@ -215,7 +216,7 @@ class NeuroSLAM:
         x, y, z, yaw = self._odometry_pose
         middle = yaw + yaw_change / 2 + drift
         self._odometry_pose = np.array([x + distance * math.cos(middle), y + distance * math.sin(middle), z + climb,
-                                        math.atan2(math.sin(yaw + yaw_change), math.cos(yaw + yaw_change))])
+                                        wrap(float(yaw + yaw_change))])
         themap.integrate(distance, yaw_change, climb, drift)  # the robot's pose in the map includes this frame's motion
         may_close_loop, merged, place = True, False, -1
         self._since_closure += distance
@@ -267,11 +268,7 @@ class NeuroSLAM:
             return np.zeros((0, 4))
         anchors = self.experience_map.poses[experiences]
         offsets = self._frame_offsets.view
-        cos, sin = np.cos(anchors[:, 3]), np.sin(anchors[:, 3])
-        yaw = anchors[:, 3] + offsets[:, 3]
-        return np.stack([anchors[:, 0] + cos * offsets[:, 0] - sin * offsets[:, 1],
-                         anchors[:, 1] + sin * offsets[:, 0] + cos * offsets[:, 1],
-                         anchors[:, 2] + offsets[:, 2], np.arctan2(np.sin(yaw), np.cos(yaw))], axis=1)
+        return compose(anchors, offsets)
 
     # saving and loading ----------------------------------------------------------------------------------
     def state_dict(self) -> dict[str, np.ndarray]:
@@ -460,7 +457,7 @@ class NeuroSLAM:
         if config.confirmation_spacing == 0:
             return True
         moved = float(np.linalg.norm(newest[:3] - before[:3]))
-        turned = abs(math.remainder(float(newest[3] - before[3]), 2 * math.pi))
+        turned = abs(wrap(float(newest[3] - before[3])))
         return moved >= config.confirmation_spacing or (
             0 < config.confirmation_turn <= turned and moved <= SPOT_RADIUS * turned)
 
@@ -652,10 +649,9 @@ class NeuroSLAM:
         before, after = (robot, grid_code, direction_code), (at_place, themap.grid_codes[place], place_direction)
         if not robot_moves:
             before, after = after, before
-        yaw = float(math.remainder(after[0][3] - before[0][3], 2 * math.pi))
-        c, s = math.cos(yaw), math.sin(yaw)
-        translation = np.array([after[0][0] - (c * before[0][0] - s * before[0][1]),
-                                after[0][1] - (s * before[0][0] + c * before[0][1]), after[0][2] - before[0][2]])
+        yaw = wrap(float(after[0][3] - before[0][3]))
+        # the motion (translation, yaw) that takes the moving side's pose onto the staying side's
+        translation = after[0][:3] - compose(np.array([0.0, 0.0, 0.0, yaw]), before[0])[:3]
         moved = np.flatnonzero(themap.components == moving)
         grid_codes, direction_codes = self._codes_after(themap.poses[moved], yaw, translation, after)
         # the views learned in the moving map: associations relative to their first experience, rotated
@@ -674,6 +670,7 @@ class NeuroSLAM:
             direction_size = np.asarray(self.config.head_direction.size, dtype=float)
             cell = np.asarray(self.config.grid_cells.cell_size, dtype=float)
             offset = ((self._view_grid[views] - old_grid + grid_size / 2) % grid_size - grid_size / 2) * cell
+            c, s = math.cos(yaw), math.sin(yaw)
             rotated = np.stack([c * offset[:, 0] - s * offset[:, 1], s * offset[:, 0] + c * offset[:, 1],
                                 offset[:, 2]], axis=1) / cell
             turn = (self._view_direction[views] - old_direction + direction_size / 2) % direction_size \
@@ -723,8 +720,7 @@ class NeuroSLAM:
         self._frame_experiences = _Growing.of(remap[frames], 0, np.int64)
         if fused.any():  # re-express those frames relative to the experience they now belong to
             anchors = themap.poses[remap[frames[fused]]]
-            offsets = np.array([themap._compose(themap._invert(anchor), pose)
-                                for anchor, pose in zip(anchors, trajectory[fused], strict=True)])
+            offsets = relative(anchors, trajectory[fused])
             self._frame_offsets.data[np.flatnonzero(fused)] = offsets
         self.merges = [(frame, int(remap[experience])) for frame, experience in self.merges]
         logger.info("fused %d experiences of the merged map into the ones they duplicate", len(duplicates))
@@ -734,17 +730,14 @@ class NeuroSLAM:
                      anchor: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
         """Grid and head-direction codes of experiences at ``poses`` moved by (``yaw``, ``translation``), from
         their metric offsets to ``anchor`` = (pose, grid code, head-direction code), wrapped."""
-        c, s = math.cos(yaw), math.sin(yaw)
-        moved = np.stack([c * poses[:, 0] - s * poses[:, 1] + translation[0],
-                          s * poses[:, 0] + c * poses[:, 1] + translation[1], poses[:, 2] + translation[2],
-                          poses[:, 3] + yaw], axis=1)
+        moved = compose(np.array([*translation[:3], yaw]), poses)
         pose, grid_code, direction_code = anchor
         grid_size = np.asarray(self.config.grid_cells.size, dtype=float)
         direction_size = np.asarray(self.config.head_direction.size, dtype=float)
         cell = np.asarray(self.config.grid_cells.cell_size, dtype=float)
         height_cell = self.config.head_direction.height_cell_size
         grid = (grid_code + (moved[:, :3] - pose[:3]) / cell) % grid_size
-        turn = np.remainder(moved[:, 3] - pose[3] + math.pi, 2 * math.pi) - math.pi
+        turn = wrap(moved[:, 3] - pose[3])
         direction = np.stack([direction_code[0] + turn / self.head_direction.yaw_cell_size,
                               direction_code[1] + (moved[:, 2] - pose[2]) / height_cell], axis=1)
         return grid, direction % direction_size

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..config import HeadDirectionConfig
+from ..geometry import wrap
 from .attractor import AttractorNetwork, wrapped_distance
 
 __all__ = ["HeadDirectionCells"]
@@ -47,9 +46,8 @@ class HeadDirectionCells:
         return self.network.decode()
 
     def yaw(self) -> float:
-        """Decoded yaw, rad in (-pi, pi]."""
-        angle = self.decode()[0] * self.yaw_cell_size
-        return math.atan2(math.sin(angle), math.cos(angle))
+        """Decoded yaw, rad in [-pi, pi)."""
+        return wrap(float(self.decode()[0] * self.yaw_cell_size))
 
     def distance(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Wrapped Euclidean distance between cells ``a`` (..., 2) and ``b`` (..., 2), in cells."""

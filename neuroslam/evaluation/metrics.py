@@ -12,6 +12,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..geometry import relative
 from .trajectory import umeyama
 
 #: A place is on a level when its true height is within this of the level's floor (m). The robot's base rests
@@ -47,11 +48,7 @@ def rpe_rmse(estimate: np.ndarray, truth: np.ndarray, *, segment: float = 10.0) 
     ends = partners[starts]
 
     def local(poses: np.ndarray) -> np.ndarray:
-        displacement = poses[ends, :3] - poses[starts, :3]
-        yaw = poses[starts, 3]
-        c, s = np.cos(yaw), np.sin(yaw)
-        return np.column_stack([c * displacement[:, 0] + s * displacement[:, 1],
-                                -s * displacement[:, 0] + c * displacement[:, 1], displacement[:, 2]])
+        return relative(poses[starts], poses[ends])[:, :3]
 
     errors = np.linalg.norm(local(estimate) - local(truth), axis=1)
     return float(math.sqrt(np.mean(errors**2)))

@@ -29,6 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..geometry import compose, wrap
+
 __all__ = ["MapComparison", "compare_maps"]
 
 
@@ -61,9 +63,9 @@ class MapComparison:
 
 
 def _transform(points: np.ndarray, yaw: float, translation: np.ndarray) -> np.ndarray:
-    c, s = math.cos(yaw), math.sin(yaw)
-    return np.column_stack([c * points[:, 0] - s * points[:, 1], s * points[:, 0] + c * points[:, 1],
-                            points[:, 2]]) + translation
+    """``points`` (N, 3; m) rotated by ``yaw`` (rad) about z through the origin, then shifted by ``translation``."""
+    motion = np.array([*translation, yaw])
+    return compose(motion, np.column_stack([points, np.zeros(len(points))]))[:, :3]
 
 
 def _fit(source: np.ndarray, target: np.ndarray) -> tuple[float, np.ndarray]:
@@ -109,7 +111,7 @@ def compare_maps(a: np.ndarray, b: np.ndarray, *, iterations: int = 100, outlier
         distances, nearest = tree.query(moved)
         keep = _inliers(distances, outlier_factor, minimum_outlier_distance)
         step_yaw, step_translation = _fit(moved[keep], b[nearest[keep]])
-        yaw = float(math.remainder(yaw + step_yaw, 2 * math.pi))
+        yaw = wrap(float(yaw + step_yaw))
         translation = _transform(translation[None], step_yaw, step_translation)[0]
         if abs(step_yaw) < 1e-6 and np.abs(step_translation).max() < 1e-6:
             break

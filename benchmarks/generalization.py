@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from neuroslam.sweep import expand_worlds, parse_grid, run_sweep
+from neuroslam.lab.sweep import expand_worlds, parse_grid, run_sweep
 from sim.arenas import GENERATOR_VERSION, GENERATOR_VERSIONS
 
 BUILT_IN = ["carpark", "urban", "building"]

@@ -27,8 +27,8 @@ import json
 import sys
 from pathlib import Path
 
-from neuroslam.cli import main as neuroslam
-from neuroslam.sweep import expand_worlds
+from neuroslam.lab.cli import main as neuroslam
+from neuroslam.lab.sweep import expand_worlds
 
 WORLDS = ["gen:100", "gen:101", "gen:102", "gen:103", "gen:104"]  # the generalization benchmark's first five
 MAP_RATIO = 1.25  # the merged map's error at most this times one session's

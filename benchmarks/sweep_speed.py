@@ -13,7 +13,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from neuroslam.sweep import run_sweep
+from neuroslam.lab.sweep import run_sweep
 
 
 def main() -> None:

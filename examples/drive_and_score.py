@@ -15,7 +15,7 @@ import numpy as np
 import sim  # the testbed; import it before anything imports mujoco
 from neuroslam import NeuroSLAM
 from neuroslam.evaluation import ate_rmse
-from neuroslam.plots import plot_report
+from neuroslam.lab.plots import plot_report
 
 max_frames = int(os.environ.get("NEUROSLAM_EXAMPLE_FRAMES", "0")) or None
 

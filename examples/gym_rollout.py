@@ -18,7 +18,7 @@ import numpy as np
 
 import sim  # registers the NeuroSLAM/... environments
 from neuroslam import geometry
-from neuroslam.wrappers import NeuroSLAMWrapper
+from neuroslam.lab.wrappers import NeuroSLAMWrapper
 
 steps = int(os.environ.get("NEUROSLAM_EXAMPLE_FRAMES", "0")) or 400
 

@@ -22,6 +22,7 @@ import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
+from .arrays import GrowingArray
 from .cells.attractor import wrapped_distance
 from .config import ExperienceMapConfig
 from .geometry import compose, inverse, wrap
@@ -61,46 +62,6 @@ class MapUpdate:
     loop_closure: bool
 
 
-class _Growing:
-    """A contiguous array that doubles its capacity as rows are appended."""
-
-    def __init__(self, columns: int, dtype: type):
-        self.data = np.zeros((64, columns) if columns else 64, dtype=dtype)
-        self.count = 0
-
-    def append(self, row) -> None:
-        if self.count == len(self.data):
-            self.data = np.concatenate([self.data, np.zeros_like(self.data)])
-        self.data[self.count] = row
-        self.count += 1
-
-    def extend(self, rows: np.ndarray) -> None:
-        """Append several rows at once."""
-        rows = np.asarray(rows, dtype=self.data.dtype)
-        while self.count + len(rows) > len(self.data):
-            self.data = np.concatenate([self.data, np.zeros_like(self.data)])
-        self.data[self.count: self.count + len(rows)] = rows
-        self.count += len(rows)
-
-    @property
-    def view(self) -> np.ndarray:
-        return self.data[: self.count]
-
-    @classmethod
-    def of(cls, rows: np.ndarray, columns: int, dtype: type) -> _Growing:
-        """A growing array holding a copy of ``rows`` (capacity at least 64)."""
-        rows = np.asarray(rows, dtype=dtype)
-        expected = (len(rows), columns) if columns else (len(rows),)
-        if rows.shape != expected:
-            raise ValueError(f"shape {rows.shape}, expected {expected}")
-        grown = cls(columns, dtype)
-        if len(rows) > len(grown.data):
-            grown.data = np.zeros((len(rows), *grown.data.shape[1:]), dtype=dtype)
-        grown.data[: len(rows)] = rows
-        grown.count = len(rows)
-        return grown
-
-
 class ExperienceMap:
     """Experiences, links, matching and relaxation.
 
@@ -119,19 +80,19 @@ class ExperienceMap:
         self.grid_size = grid_size
         self.direction_size = direction_size
         self.grid_cell_size = np.asarray(grid_cell_size, dtype=float)
-        self._poses = _Growing(4, np.float64)
-        self._grid_codes = _Growing(3, np.float64)
-        self._direction_codes = _Growing(2, np.float64)
-        self._templates = _Growing(0, np.int64)
-        self._times = _Growing(0, np.float64)
-        self._links = _Growing(2, np.int64)
-        self._link_poses = _Growing(4, np.float64)  # distance, heading, facing, height change
-        self._link_times = _Growing(0, np.float64)
-        self._link_weights = _Growing(0, np.float64)  # of each link's errors in the least-squares map
-        self._degree = _Growing(0, np.int64)
-        self._components = _Growing(0, np.int64)  # which connected map each experience belongs to
-        self._sessions = _Growing(0, np.int64)  # which session made each experience
-        self._odometers = _Growing(0, np.float64)  # the session's path length when each experience was made, m
+        self._poses = GrowingArray(4, np.float64)
+        self._grid_codes = GrowingArray(3, np.float64)
+        self._direction_codes = GrowingArray(2, np.float64)
+        self._templates = GrowingArray(0, np.int64)
+        self._times = GrowingArray(0, np.float64)
+        self._links = GrowingArray(2, np.int64)
+        self._link_poses = GrowingArray(4, np.float64)  # distance, heading, facing, height change
+        self._link_times = GrowingArray(0, np.float64)
+        self._link_weights = GrowingArray(0, np.float64)  # of each link's errors in the least-squares map
+        self._degree = GrowingArray(0, np.int64)
+        self._components = GrowingArray(0, np.int64)  # which connected map each experience belongs to
+        self._sessions = GrowingArray(0, np.int64)  # which session made each experience
+        self._odometers = GrowingArray(0, np.float64)  # the session's path length when each experience was made, m
         self._linked: set[tuple[int, int]] = set()
         self._by_template: dict[int, list[int]] = {}
         self._settled = True
@@ -235,7 +196,7 @@ class ExperienceMap:
             else:
                 rows = state[name]
             try:
-                grown[attribute] = _Growing.of(rows, columns, dtype)
+                grown[attribute] = GrowingArray.of(rows, columns, dtype)
             except ValueError as error:
                 raise ValueError(f"{name}: {error}") from None
         size, links = grown["_poses"].count, grown["_links"].view
@@ -332,9 +293,9 @@ class ExperienceMap:
                 rows = rows[keep]
             else:
                 rows = np.zeros(int(keep.sum()), dtype=np.int64)
-            setattr(self, attribute, _Growing.of(rows, columns, dtype))
+            setattr(self, attribute, GrowingArray.of(rows, columns, dtype))
         kept_links = self.links
-        self._degree = _Growing.of(np.bincount(kept_links.ravel(), minlength=self.size), 0, np.int64)
+        self._degree = GrowingArray.of(np.bincount(kept_links.ravel(), minlength=self.size), 0, np.int64)
         self._linked = {(int(a), int(b)) for a, b in kept_links}
         self._by_template = {}
         for experience, template in enumerate(self.template_ids):

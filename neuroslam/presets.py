@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import difflib
 import math
+from pathlib import Path
 
 from .config import (
     Config,
@@ -20,10 +21,11 @@ from .config import (
     LocalViewConfig,
     Region,
     VisualOdometryConfig,
+    load_config,
 )
 from .errors import InvalidParameterError
 
-__all__ = ["get", "names"]
+__all__ = ["get", "names", "resolve"]
 
 
 def _paper_grid(global_inhibition: float, view_injection: float) -> GridCellConfig:
@@ -105,3 +107,19 @@ def get(name: str) -> Config:
         hint = f" (did you mean {close[0]!r}?)" if close else ""
         raise InvalidParameterError("preset", name, f"unknown preset{hint}; known: {', '.join(names())}")
     return _PRESETS[name]()
+
+
+def resolve(config: Config | str | Path | None) -> Config:
+    """A :class:`Config` from what a user may pass for one: ``None`` (the defaults), a ``Config`` (itself), a
+    TOML or JSON file's path, or a preset's name. Raises :class:`InvalidParameterError` naming ``config``
+    for anything else, and the errors of :func:`get` and :func:`~neuroslam.config.load_config`."""
+    if config is None:
+        return Config()
+    if isinstance(config, Config):
+        return config
+    if isinstance(config, str | Path):
+        text = str(config)
+        if text.endswith((".toml", ".json")) or Path(text).is_file():
+            return load_config(text)
+        return get(text)
+    raise InvalidParameterError("config", type(config).__name__, "must be a Config, a preset name or a file path")

@@ -26,11 +26,13 @@ from pathlib import Path
 
 import numpy as np
 
+from . import presets
+from .arrays import GrowingArray
 from .cells import GridCells, HeadDirectionCells
 from .cells.grid_network import GridNetwork
-from .config import Config, load_config
+from .config import Config
 from .errors import InvalidInputError, InvalidParameterError
-from .experience_map import ExperienceMap, _Growing
+from .experience_map import ExperienceMap
 from .geometry import compose, relative, wrap
 from .loop_closure import confirm_place
 from .maps import MapFileError, read_map, write_map
@@ -95,7 +97,7 @@ class NeuroSLAM:
     """
 
     def __init__(self, config: Config | str | Path | None = None):
-        self.config = _resolve(config)
+        self.config = presets.resolve(config)
         c = self.config
         self.visual_odometry = VisualOdometry(c.odometry, horizontal_fov=c.horizontal_fov, vertical_fov=c.vertical_fov,
                                               panoramic=c.panoramic)
@@ -119,8 +121,8 @@ class NeuroSLAM:
             maxlen=c.experience_map.confirmation_window)
         self._since_closure = 0.0  # m driven since the robot was last on an old experience (or closed a loop)
         # per frame: its experience and the robot's pose relative to it (x, y, z, yaw), for trajectory()
-        self._frame_experiences = _Growing(0, np.int64)
-        self._frame_offsets = _Growing(4, np.float64)
+        self._frame_experiences = GrowingArray(0, np.int64)
+        self._frame_offsets = GrowingArray(4, np.float64)
         self.frames = 0
         self.last: Estimate | None = None
         self.merges: list[tuple[int, int]] = []  # this session's merges: (frame index, experience merged at)
@@ -382,8 +384,8 @@ class NeuroSLAM:
                                   for pose, template, others in recent),
                                  maxlen=self.config.experience_map.confirmation_window)
             self._since_closure = float(state["slam.since_closure"])
-            self._frame_experiences = _Growing.of(state["slam.frame_experiences"], 0, np.int64)
-            self._frame_offsets = _Growing.of(state["slam.frame_offsets"], 4, np.float64)
+            self._frame_experiences = GrowingArray.of(state["slam.frame_experiences"], 0, np.int64)
+            self._frame_offsets = GrowingArray.of(state["slam.frame_offsets"], 4, np.float64)
             self.frames = int(state["slam.frames"])
             if len(self._frame_experiences.view) and self._frame_experiences.view.max() >= self.experience_map.size:
                 raise ValueError("a frame names an experience that does not exist")
@@ -520,8 +522,8 @@ class NeuroSLAM:
         self._recent.clear()
         self._since_closure = 0.0
         self._view_decay[:] = 0.0
-        self._frame_experiences = _Growing(0, np.int64)
-        self._frame_offsets = _Growing(4, np.float64)
+        self._frame_experiences = GrowingArray(0, np.int64)
+        self._frame_offsets = GrowingArray(4, np.float64)
         self.frames = 0
         self.last = None
         self.merges = []
@@ -717,7 +719,7 @@ class NeuroSLAM:
         trajectory = self.trajectory()
         remap = themap.fuse(duplicates)
         fused = np.isin(frames, list(duplicates))
-        self._frame_experiences = _Growing.of(remap[frames], 0, np.int64)
+        self._frame_experiences = GrowingArray.of(remap[frames], 0, np.int64)
         if fused.any():  # re-express those frames relative to the experience they now belong to
             anchors = themap.poses[remap[frames[fused]]]
             offsets = relative(anchors, trajectory[fused])
@@ -801,18 +803,3 @@ def _library_version() -> str:
     from . import __version__
 
     return __version__
-
-
-def _resolve(config: Config | str | Path | None) -> Config:
-    if config is None:
-        return Config()
-    if isinstance(config, Config):
-        return config
-    if isinstance(config, (str, Path)):
-        text = str(config)
-        if text.endswith((".toml", ".json")) or Path(text).is_file():
-            return load_config(text)
-        from . import presets
-
-        return presets.get(text)
-    raise InvalidParameterError("config", type(config).__name__, "must be a Config, a preset name or a file path")

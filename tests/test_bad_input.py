@@ -23,9 +23,9 @@ from test_slam import image
 
 import sim
 from neuroslam import Config, InvalidInputError, InvalidParameterError, NeuroSLAM, SelfMotion, load_config
-from neuroslam.cli import main
 from neuroslam.config import ExperienceMapConfig, GridCellConfig, HeadDirectionConfig, LocalViewConfig
 from neuroslam.datasets import DatasetError, check_frame_sizes, list_frames, read_groundtruth
+from neuroslam.lab.cli import main
 from neuroslam.maps import MapFileError
 
 
@@ -524,7 +524,7 @@ def test_a_bad_environment_argument_is_refused(arguments, message):
     (lambda: gym.make("CartPole-v1"), {"odometry_key": "speed"}, "odometry_key='speed': needs a Dict"),
 ])
 def test_the_slam_wrapper_refuses_what_it_cannot_use_when_it_is_built(make, arguments, message):
-    from neuroslam.wrappers import NeuroSLAMWrapper
+    from neuroslam.lab.wrappers import NeuroSLAMWrapper
 
     env = make()
     with pytest.raises(InvalidParameterError) as error:

@@ -8,12 +8,13 @@ import numpy as np
 import pytest
 
 from neuroslam import NeuroSLAM
-from neuroslam.cli import main
+from neuroslam.lab.cli import main
 from neuroslam.tum import read_tum
 
 
 def run(*args):
-    return subprocess.run([sys.executable, "-m", "neuroslam.cli", *args], capture_output=True, text=True, timeout=300)
+    return subprocess.run([sys.executable, "-m", "neuroslam.lab.cli", *args], capture_output=True, text=True,
+                          timeout=300)
 
 
 def test_help_explains_every_command():

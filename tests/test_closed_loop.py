@@ -24,7 +24,7 @@ import json
 
 import pytest
 
-from neuroslam.cli import main
+from neuroslam.lab.cli import main
 
 DEVELOPMENT_WORLDS = ["carpark", "urban", "building", "gen1:1", "gen1:2", "gen1:3"]
 HARD_WORLDS = ["gen1:108", "gen1:127"]  # a blank floor; sparse marks

@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from neuroslam.cli import main
 from neuroslam.datasets import (
     DatasetDescription,
     DatasetError,
@@ -16,6 +15,7 @@ from neuroslam.datasets import (
     read_description,
     read_groundtruth,
 )
+from neuroslam.lab.cli import main
 
 
 def test_frames_in_natural_order(tmp_path):

@@ -19,7 +19,7 @@ import pytest
 
 
 def _cli(*args):
-    result = subprocess.run([sys.executable, "-m", "neuroslam.cli", *args], capture_output=True, text=True,
+    result = subprocess.run([sys.executable, "-m", "neuroslam.lab.cli", *args], capture_output=True, text=True,
                             timeout=600)
     assert result.returncode == 0, result.stderr[-2000:]
 
@@ -69,7 +69,7 @@ ROLLOUT = textwrap.dedent("""
     import numpy as np
     import gymnasium as gym
     import sim  # registers the environments
-    from neuroslam.wrappers import NeuroSLAMWrapper
+    from neuroslam.lab.wrappers import NeuroSLAMWrapper
 
     seed = int(sys.argv[1])
     env = NeuroSLAMWrapper(gym.make("NeuroSLAM/PointNav-v0", world="gen:2"))

@@ -233,7 +233,7 @@ def test_run_metrics_and_tum_files_of_a_drive_match_evo(tmp_path):
     from evo.core.metrics import RPE
     from evo.tools import file_interface
 
-    from neuroslam.cli import main
+    from neuroslam.lab.cli import main
 
     assert main(["drive", "carpark", "--max-frames", "200", "--out", str(tmp_path)]) == 0
     summary = json.loads((tmp_path / "metrics.json").read_text())

@@ -16,7 +16,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from neuroslam import NeuroSLAM
-from neuroslam.cli import main
+from neuroslam.lab.cli import main
 
 
 def _drive(out, *args):

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import sim  # noqa: F401 (registers the environments)
-from neuroslam.cli import main
+from neuroslam.lab.cli import main
 
 
 def test_the_ground_truth_planner_reaches_its_goals_on_a_generated_world(tmp_path):

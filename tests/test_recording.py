@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from neuroslam.cli import main
-from neuroslam.recording import RecordingUnavailableError, RunRecorder
+from neuroslam.lab.cli import main
+from neuroslam.lab.recording import RecordingUnavailableError, RunRecorder
 from neuroslam.slam import NeuroSLAM
 
 EVERY_RUN = {"camera", "world/slam", "world", "map", "map/robot", "map/experiences", "cells/grid", "cells/grid/extent",
@@ -85,7 +85,7 @@ def test_recorder_without_ground_truth_and_with_grey_float_images(tmp_path, stri
 
 def test_help_lists_record():
     for command in ("drive", "run"):
-        result = subprocess.run([sys.executable, "-m", "neuroslam.cli", command, "--help"], capture_output=True,
+        result = subprocess.run([sys.executable, "-m", "neuroslam.lab.cli", command, "--help"], capture_output=True,
                                 text=True, timeout=60)
         assert "--record" in result.stdout and "run.rrd" in result.stdout
 

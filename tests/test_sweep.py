@@ -7,8 +7,8 @@ import json
 import pytest
 
 from neuroslam import InvalidParameterError
-from neuroslam.cli import main
-from neuroslam.sweep import expand_worlds, flatten, parse_grid
+from neuroslam.lab.cli import main
+from neuroslam.lab.sweep import expand_worlds, flatten, parse_grid
 
 
 def test_world_lists_expand_ranges_and_commas():

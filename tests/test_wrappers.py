@@ -6,7 +6,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import sim  # noqa: F401  (registers the environments, selects headless rendering)
-from neuroslam.wrappers import NeuroSLAMWrapper
+from neuroslam.lab.wrappers import NeuroSLAMWrapper
 
 
 @pytest.mark.filterwarnings("ignore:.*different from the unwrapped version")  # checking the wrapper is the point

@@ -37,10 +37,10 @@ from typing import Any
 
 import numpy as np
 
-from . import geometry
-from .errors import InvalidParameterError
-from .vision.odometry import SelfMotion
-from .vision.preprocessing import grey
+from .. import geometry
+from ..errors import InvalidParameterError
+from ..vision.odometry import SelfMotion
+from ..vision.preprocessing import grey
 
 __all__ = ["PlannerAgent", "RandomAgent", "load_agent", "run_episode", "summarise"]
 
@@ -126,7 +126,7 @@ class EpisodeRunner:
         self.steps = 0
 
     def begin(self, observation: dict, info: dict) -> None:
-        from .slam import NeuroSLAM
+        from ..slam import NeuroSLAM
 
         self.start = np.array(info["pose"], dtype=float)
         self.goal = np.array(info["goal"], dtype=float)

@@ -39,7 +39,7 @@ def plot_report(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .evaluation import align
+    from ..evaluation import align
 
     figure = plt.figure(figsize=(15, 9))
     grid = figure.add_gridspec(2, 3)

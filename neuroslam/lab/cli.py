@@ -107,7 +107,7 @@ def _record_option(parser: argparse.ArgumentParser) -> None:
 
 
 def _recorder(args: argparse.Namespace, out: Path, name: str):
-    """A :class:`~neuroslam.recording.RunRecorder` writing ``out/run.rrd`` if ``--record`` was given, else None."""
+    """A :class:`~neuroslam.lab.recording.RunRecorder` writing ``out/run.rrd`` if ``--record`` was given, else None."""
     if not args.record:
         return None
     from .recording import RunRecorder
@@ -224,7 +224,7 @@ def _parser() -> argparse.ArgumentParser:
         description="Evaluate navigation on NeuroSLAM/PointNav-v0: N seeded episodes per world (the same start "
         "and goal pairs for every setting), an agent (random; planner: a ramp-aware shortest path on the "
         "drivable graph derived from the world's geometry, followed with the scripted drives' controller; or "
-        "module:Class, see neuroslam.nav) localising itself with a pose source (groundtruth, odometry: the "
+        "module:Class, see neuroslam.lab.nav) localising itself with a pose source (groundtruth, odometry: the "
         "wheel encoders, slam: NeuroSLAM on the wheels and the camera, with --load-map a map of an earlier "
         "drive of the same world). Writes OUT/episodes.csv (world, seed, agent, pose, success, spl, "
         "path_length_m, geodesic_m, steps, collisions, final_localisation_error_m) and OUT/summary.json.")
@@ -252,11 +252,11 @@ def _drive(args: argparse.Namespace) -> int:
 
     import sim  # the simulator is only needed here; importing it selects headless rendering
 
-    from .evaluation import observation_shares, run_metrics
-    from .inertial import GravityPitch
-    from .tum import write_tum, yaw_quaternion
-    from .vision.odometry import Observed, SelfMotion
-    from .vision.preprocessing import grey
+    from ..evaluation import observation_shares, run_metrics
+    from ..inertial import GravityPitch
+    from ..tum import write_tum, yaw_quaternion
+    from ..vision.odometry import Observed, SelfMotion
+    from ..vision.preprocessing import grey
 
     slam, book = _slam_from(args)
     if args.load_map:
@@ -386,7 +386,7 @@ def _write_slam(out: Path, times: np.ndarray, estimates: np.ndarray, online: np.
                 slam) -> None:
     """slam.tum (every frame in the final map), slam_online.tum (the estimate as it was at each frame),
     odometry.tum and experiences.tum of a run."""
-    from .tum import write_tum, yaw_quaternion
+    from ..tum import write_tum, yaw_quaternion
 
     write_tum(out / "slam.tum", times, estimates[:, :3], yaw_quaternion(estimates[:, 3]))
     write_tum(out / "slam_online.tum", times, online[:, :3], yaw_quaternion(online[:, 3]))
@@ -431,7 +431,7 @@ def _save_map(slam, out: Path, book: _Truths, metadata: dict) -> None:
     """out/map.npz, the final map, with each experience's true pose and level where it was made
     (``experience_truth``, ``experience_levels``; NaN and -1 where unknown), so that later sessions which
     load the map can score the merged map."""
-    from .slam import MAP_FILE
+    from ..slam import MAP_FILE
 
     poses, levels = book.of(np.arange(slam.experience_map.size))
     slam.save(out / MAP_FILE, extra={"experience_truth": poses, "experience_levels": levels}, metadata=metadata)
@@ -458,10 +458,10 @@ def _slam_from(args: argparse.Namespace):
     """The NeuroSLAM the options ask for: a preset and config file, or the maps of earlier sessions.
 
     Returns (slam, truths): the :class:`_Truths` book of every experience's ground truth."""
-    from . import presets
-    from .config import load_config
-    from .errors import InvalidParameterError
-    from .slam import NeuroSLAM
+    from .. import presets
+    from ..config import load_config
+    from ..errors import InvalidParameterError
+    from ..slam import NeuroSLAM
 
     maps = getattr(args, "load_map", [])
     if not maps:
@@ -531,7 +531,7 @@ def _run(args: argparse.Namespace) -> int:
     """NeuroSLAM on a folder of recorded frames."""
     from tqdm import tqdm
 
-    from .datasets import (
+    from ..datasets import (
         DatasetError,
         check_frame_sizes,
         check_levels,
@@ -541,7 +541,7 @@ def _run(args: argparse.Namespace) -> int:
         read_description,
         read_groundtruth,
     )
-    from .evaluation import nearest_level, observation_shares, run_metrics
+    from ..evaluation import nearest_level, observation_shares, run_metrics
 
     frames = list_frames(args.frames)
     description = read_description(args.frames)
@@ -641,8 +641,8 @@ def _record(args: argparse.Namespace) -> int:
 
     import sim
 
-    from .datasets import DatasetDescription, write_description
-    from .tum import write_tum, yaw_quaternion
+    from ..datasets import DatasetDescription, write_description
+    from ..tum import write_tum, yaw_quaternion
 
     world, route = _world_and_route(args)
     drive = sim.ScriptedDrive(world, route=route, laps=args.laps, speed=args.speed, max_frames=args.max_frames,
@@ -676,10 +676,10 @@ def _calibrate(args: argparse.Namespace) -> int:
 
     import sim
 
-    from .geometry import wrap
-    from .vision.calibration import fit_odometry_gains
-    from .vision.odometry import VisualOdometry
-    from .vision.preprocessing import grey
+    from ..geometry import wrap
+    from ..vision.calibration import fit_odometry_gains
+    from ..vision.odometry import VisualOdometry
+    from ..vision.preprocessing import grey
 
     base = _slam_from(args)[0].config
     # the raw row-shift pitch changes are eqs. 31-32's ("profile"), whose gains are fitted; the "transitions"
@@ -747,8 +747,8 @@ def _metres(value: float | None) -> str:
 def _map_positions(path: Path) -> np.ndarray:
     """(N, 3) experience positions of a map.npz, a run's output folder (its map.npz, else experiences.tum),
     or an experiences.tum file."""
-    from .slam import MAP_FILE, NeuroSLAM
-    from .tum import read_tum
+    from ..slam import MAP_FILE, NeuroSLAM
+    from ..tum import read_tum
 
     if path.is_dir() and not (path / MAP_FILE).is_file() and (path / "experiences.tum").is_file():
         path = path / "experiences.tum"
@@ -759,8 +759,8 @@ def _map_positions(path: Path) -> np.ndarray:
 
 def _compare_maps(args: argparse.Namespace) -> int:
     """The RMSE between two experience maps after ICP (:mod:`neuroslam.evaluation.registration`)."""
-    from .errors import InvalidInputError
-    from .evaluation.registration import compare_maps
+    from ..errors import InvalidInputError
+    from ..evaluation.registration import compare_maps
 
     a, b = _map_positions(args.a), _map_positions(args.b)
     for name, points in (("a", a), ("b", b)):
@@ -782,7 +782,7 @@ def _compare_maps(args: argparse.Namespace) -> int:
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    """Drives as Ray tasks (:mod:`neuroslam.sweep`); exit code 1 if any drive failed."""
+    """Drives as Ray tasks (:mod:`neuroslam.lab.sweep`); exit code 1 if any drive failed."""
     from .sweep import expand_worlds, parse_grid, run_sweep, summary
 
     worlds, grid = expand_worlds(args.worlds), parse_grid(args.grid)
@@ -801,13 +801,13 @@ def _sweep(args: argparse.Namespace) -> int:
 
 
 def _nav(args: argparse.Namespace) -> int:
-    """Navigation episodes (:mod:`neuroslam.nav`)."""
+    """Navigation episodes (:mod:`neuroslam.lab.nav`)."""
     from tqdm import tqdm
 
     import sim
     from sim.navigation import DrivableGraph
 
-    from .errors import InvalidParameterError
+    from ..errors import InvalidParameterError
     from .nav import load_agent, run_episode, run_episodes_vector, write_episodes, write_summary
 
     load_agent(args.agent)  # an unknown agent fails before any episode
@@ -815,7 +815,7 @@ def _nav(args: argparse.Namespace) -> int:
         raise InvalidParameterError("--load-map", str(args.load_map), "is used with --pose slam only")
     worlds = {name: sim.load_world(name) for name in args.worlds}  # bad worlds and maps fail before any episode
     if args.load_map is not None:
-        from .slam import NeuroSLAM
+        from ..slam import NeuroSLAM
 
         NeuroSLAM.load(args.load_map)
     out = args.out or Path("runs") / f"nav-{time.strftime('%Y%m%d-%H%M%S')}"
@@ -879,7 +879,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _is_user_error(error: Exception) -> bool:
     """True for errors caused by the user's input (typed library errors, unreadable files), not bugs."""
-    from .errors import NeuroSLAMError
+    from ..errors import NeuroSLAMError
 
     simulator = sys.modules.get("sim")
     return isinstance(error, (OSError, NeuroSLAMError)) or (

@@ -34,11 +34,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .errors import InvalidParameterError, NeuroSLAMError
-from .geometry import relative
+from ..errors import InvalidParameterError, NeuroSLAMError
+from ..geometry import relative
 
 if TYPE_CHECKING:
-    from .slam import Estimate, NeuroSLAM
+    from ..slam import Estimate, NeuroSLAM
 
 __all__ = ["RecordingUnavailableError", "RunRecorder"]
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .errors import InvalidParameterError
+from ..errors import InvalidParameterError
 
 __all__ = ["Drive", "expand_worlds", "parse_grid", "run_sweep"]
 
@@ -76,7 +76,7 @@ def _value(text: str) -> Any:
 
 def parse_grid(items: list[str]) -> list[tuple[tuple[str, Any], ...]]:
     """``FIELD=V1,V2`` items (dotted configuration fields) → every combination of their values."""
-    from .config import Config
+    from ..config import Config
 
     axes = []
     for item in items:

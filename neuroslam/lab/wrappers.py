@@ -15,10 +15,11 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from .config import Config
-from .errors import InvalidParameterError
-from .slam import NeuroSLAM, _resolve
-from .vision.odometry import SelfMotion
+from .. import presets
+from ..config import Config
+from ..errors import InvalidParameterError
+from ..slam import NeuroSLAM
+from ..vision.odometry import SelfMotion
 
 __all__ = ["NeuroSLAMWrapper"]
 
@@ -50,7 +51,7 @@ class NeuroSLAMWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         image_space = space.spaces[image_key] if isinstance(space, spaces.Dict) else space
         if not isinstance(image_space, spaces.Box) or len(image_space.shape) not in (2, 3):
             raise InvalidParameterError("env", str(image_space), "must observe an image (a Box HxW or HxWx3)")
-        self.slam_config = _resolve(config)  # a bad configuration fails here, not at the first reset
+        self.slam_config = presets.resolve(config)  # a bad configuration fails here, not at the first reset
         self.image_key = image_key
         self.odometry_key = odometry_key
         self.add_to_observation = add_to_observation

@@ -4,39 +4,7 @@ Every section validates itself on construction and names the offending field (``
 Units: metres, seconds and radians at the boundary; cells only inside the networks. Defaults are the
 ``sim`` preset (the testbed's 160×120, 80° camera); :mod:`neuroslam.presets` holds the paper's tables.
 
-How the ``sim`` defaults were chosen (two laps of the testbed's car park, measured against ground truth):
-
-- grid cells: 48 × 48 × 16 cells of 2 × 2 × 1 m (96 × 96 × 16 m) instead of the paper's 36³ of 1 m:
-  the 40 m car park is wider than 36 m, and places 36 m apart shared a grid code, which let one view
-  seen at both close a false loop that threw the map 36 m. (64 × 64 × 16 cells of 1.5 m gave the same
-  accuracy, 2.28 against 2.27 m, at 1.8 times the cells.)
-- view calibration 0.005 (grid) and 0.005 (head direction), template threshold 0.3: views in the testbed
-  repeat (lanes, pillars), and stronger injection dragged the packets to look-alike places. It also drags
-  the grid packet ahead where the robot passes a place again: a view is recognised before the robot
-  reaches the place where it was learned, and its injection pulls the packet there. Fed the true motion
-  on the car park, the second lap ran 0.16 m ahead along the path at 0.02 (0.045 m at 0.005; SLAM ATE
-  0.24 → 0.19 m; with no injection at all, 0.43 m). On the six worlds of the README's table, with the
-  near-floor yaw, 0.005 against 0.02 lowered the SLAM ATE on every one (building 2.16 → 1.91 m, urban
-  0.90 → 0.54 m, car park 0.35 → 0.27 m); without it, on five of six (urban 0.80 → 0.85 m).
-- experience threshold 1.0 (one 2 m cell): at 1.5, look-alike views 4 m apart along a lane closed false
-  loops (1 with the camera, 3 with wheels); at 1.0 none, at the same accuracy.
-- visual odometry: speed and yaw from the ground plane (no gains to fit), the yaw solved again on the
-  near floor where it has texture (``near_floor_row = 0.5``: walls beside the path bias the far rows);
-  the height pipeline's gains by the least height error over the car park (``neuroslam calibrate``).
-- experience map (two laps of every built-in world and gen1:1–3, one setting for all): loops close only
-  where a run of views confirms the place (``loop_closure = "confirmed"``: 16 of the last 20 metres'
-  views at old experiences laid out as the odometry says, within 1 m, heights within 1 m plus 0.3 m per
-  metre; views seen along more than 3 m are no evidence), and the map is solved by least squares. With
-  the paper's eq. 22 alone a loop closed only where the odometry had drifted less than one grid cell
-  (2 m) — on the car park, not on the streets or the generated worlds, whose maps kept the odometry's
-  shape (SLAM ATE 0.9–1.0 times the odometry's); and eq. 25's passes spread a loop's error over a few
-  dozen experiences, not a 1,500-experience lap. A window of 30 (24 agreeing) closed fewer loops; a
-  height allowance of 0.4 m/m closed false loops in the building, 0.25 m/m too few where the height
-  drifts; without the rule on views seen along many metres, a uniform street's views locked the second
-  lap 4 m off the first (21 false closures on urban).
-
-With these, two laps (``neuroslam drive WORLD``, camera only): the car park 106 closures (none false),
-SLAM ATE 1.03 m against the visual odometry's 2.86 m, level accuracy 0.97; the README has every world.
+Why the ``sim`` defaults are what they are, and what each changed on the benchmark: ``docs/configuration.md``.
 """
 
 from __future__ import annotations

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from .errors import NeuroSLAMError
+from .files import publish
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "MapFileError", "read_map", "write_map"]
 
@@ -92,10 +93,7 @@ def write_map(path: str | Path, header: dict[str, Any], arrays: dict[str, np.nda
                         np.lib.format.write_array(member, np.asarray(array, order="C"), allow_pickle=False)
             file.flush()
             os.fsync(file.fileno())
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(temporary, 0o666 & ~umask)  # mkstemp's 0600 would make the map private
-        os.replace(temporary, path)
+        publish(temporary, path)  # mkstemp's 0600 would make the map private
     except BaseException as error:
         Path(temporary).unlink(missing_ok=True)
         if isinstance(error, OSError):

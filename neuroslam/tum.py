@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from .datasets import DatasetError
+from .files import publish
 
 __all__ = ["read_tum", "write_tum", "yaw_quaternion"]
 
@@ -45,7 +46,7 @@ def write_tum(path: str | Path, timestamps: np.ndarray, positions: np.ndarray, q
             # each number as Python's shortest repr that reads back to the same float64 (exact round trip;
             # 9 significant digits would put Unix-time stamps up to 10 s off)
             file.write("".join(" ".join(map(repr, row)) + "\n" for row in rows.tolist()))
-        os.replace(temporary, path)
+        publish(temporary, path)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
         raise

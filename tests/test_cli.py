@@ -70,13 +70,50 @@ def test_short_drive_with_slam_writes_trajectories_and_summary(tmp_path, capsys,
     (["drive", "carpark", "--route", "nope"], "route='nope'"),
     (["drive", "carpark", "--laps", "0"], "must be at least 1"),
     (["drive", "carpark", "--preset", "nope"], "unknown preset"),
+    (["drive", "carpark", "--laps", "x"], "argument --laps: 'x' is not an integer"),
+    (["drive", "--odometry", "lidar"], "argument --odometry: invalid choice"),
+    (["fly"], "argument COMMAND: invalid choice"),
 ])
 def test_bad_input_gives_one_line_and_exit_code_2(args, text):
     result = run(*args)
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert "Traceback" not in result.stderr
-    assert text in lines[-1]
+    assert len(lines) == 1 and text in lines[0], result.stderr
+
+
+def test_version():
+    from neuroslam import __version__
+
+    result = run("--version")
+    assert result.returncode == 0 and result.stdout.strip() == f"neuroslam {__version__}"
+
+
+def test_an_earlier_run_is_replaced_only_with_overwrite(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["drive", "gen:1", "--max-frames", "5", "--out", str(out)]) == 0
+    (out / "run.rrd").write_text("a stale recording")
+    first = (out / "metrics.json").read_text()
+    capsys.readouterr()
+    assert main(["drive", "gen:1", "--max-frames", "6", "--out", str(out)]) == 2
+    assert "holds an earlier run or dataset; add --overwrite" in capsys.readouterr().err
+    assert (out / "metrics.json").read_text() == first  # nothing touched
+    assert main(["drive", "gen:1", "--max-frames", "6", "--out", str(out), "--overwrite"]) == 0
+    assert json.loads((out / "metrics.json").read_text())["frames"] == 6
+    assert not (out / "run.rrd").exists()  # cleared: no stale file from the earlier run
+    # a dataset is refused alike, a file or a folder of other files even with --overwrite
+    assert main(["record", "gen:1", "--max-frames", "3", "--out", str(out)]) == 2
+    (tmp_path / "notes").mkdir()
+    (tmp_path / "notes" / "mine.txt").write_text("keep")
+    (tmp_path / "file").write_text("keep")
+    capsys.readouterr()
+    for target, text in (("notes", "holds files neuroslam did not write"), ("file", "is a file")):
+        assert main(["drive", "gen:1", "--max-frames", "3", "--out", str(tmp_path / target), "--overwrite"]) == 2
+        assert text in capsys.readouterr().err
+    assert (tmp_path / "notes" / "mine.txt").read_text() == (tmp_path / "file").read_text() == "keep"
+    # calibrate refuses to replace its config file before it drives
+    assert main(["calibrate", "gen:1", "--max-frames", "3", "--out", str(tmp_path / "file")]) == 2
+    assert "exists; add --overwrite" in capsys.readouterr().err
 
 
 def test_bad_files_give_one_line_and_exit_code_2(tmp_path):

@@ -110,6 +110,32 @@ def test_a_recorded_drive_replayed_scores_as_the_drive_did(tmp_path):
     assert json.loads((tmp_path / "levels" / "metrics.json").read_text())["levels_visited"] == [1]
 
 
+def test_a_recorded_drive_replays_its_wheel_odometry(tmp_path, capsys):
+    """`run --odometry wheel` on a recorded folder takes the wheels from its wheel_odometry.tum and scores as
+    `drive --odometry wheel` on the same frames: the speeds are the recorded positions' chords over the frame
+    times (the drive's are the arcs rolled): at the routes' turn rates, up to 1 rad/s, a 0.1 s chord is
+    shorter than its arc by up to 4e-4 of it, a few millimetres over these 12 m."""
+    dataset = tmp_path / "dataset"
+    assert main(["record", "gen1:2", "--max-frames", "120", "--out", str(dataset)]) == 0
+    assert main(["drive", "gen1:2", "--max-frames", "120", "--odometry", "wheel",
+                 "--out", str(tmp_path / "drive")]) == 0
+    assert main(["run", str(dataset), "--groundtruth", str(dataset / "groundtruth.tum"), "--odometry", "wheel",
+                 "--out", str(tmp_path / "run")]) == 0
+    drive = json.loads((tmp_path / "drive" / "metrics.json").read_text())
+    replay = json.loads((tmp_path / "run" / "metrics.json").read_text())
+    assert replay["odometry"] == drive["odometry"] == "wheel"
+    for key in ("frames", "templates", "experiences", "loop_closures", "false_loop_closures", "level_accuracy"):
+        assert replay[key] == drive[key], key
+    for key in ("ate_rmse_m", "rpe_rmse_m"):
+        assert replay[key] == pytest.approx(drive[key], abs=1e-3), key
+    # a folder without wheel odometry: one line, exit code 2
+    (dataset / "wheel_odometry.tum").unlink()
+    capsys.readouterr()
+    assert main(["run", str(dataset), "--odometry", "wheel", "--out", str(tmp_path / "none")]) == 2
+    error = capsys.readouterr().err.strip()
+    assert "wheel_odometry.tum" in error and "\n" not in error
+
+
 @pytest.mark.parametrize("content, text", [
     ("[1, 2]", "must be a JSON object"),
     ('{"levels": [3, 0]}', "strictly increasing"),

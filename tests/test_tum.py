@@ -28,3 +28,21 @@ def test_mismatched_lengths_are_refused(tmp_path):
     with pytest.raises(ValueError, match="lengths differ"):
         write_tum(tmp_path / "t.tum", [0, 1], np.zeros((3, 3)), np.zeros((2, 4)))
     assert not (tmp_path / "t.tum").exists()
+
+
+def test_written_files_are_readable_by_others(tmp_path):
+    """Trajectories and maps get the permissions any new file gets (0644 under umask 022), not mkstemp's
+    0600: a run's outputs are meant to be shared."""
+    import os
+    import stat
+
+    from neuroslam import NeuroSLAM
+
+    previous = os.umask(0o022)
+    try:
+        write_tum(tmp_path / "a.tum", np.zeros(2), np.zeros((2, 3)), np.tile([1.0, 0, 0, 0], (2, 1)))
+        NeuroSLAM("sim").save(tmp_path / "map.npz")
+    finally:
+        os.umask(previous)
+    for name in ("a.tum", "map.npz"):
+        assert stat.S_IMODE((tmp_path / name).stat().st_mode) == 0o644, name

@@ -115,11 +115,21 @@ def _recorder(args: argparse.Namespace, out: Path, name: str):
     return RunRecorder(out / "run.rrd", name=name)
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (no usage block) and exit with code 2."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    from .. import __version__
+
+    parser = _Parser(
         prog="neuroslam",
         description="NeuroSLAM, brain-inspired 4-DoF SLAM, and its multi-level MuJoCo testbed.",
     )
+    parser.add_argument("--version", action="version", version=f"neuroslam {__version__}")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     drive = commands.add_parser(
@@ -144,6 +154,8 @@ def _parser() -> argparse.ArgumentParser:
                        "camera's pitch for the height rate, or from the camera with the height rate from the IMU's "
                        "gravity direction (visual-inertial; not the paper's) (default: visual)")
     drive.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
+    drive.add_argument("--overwrite", action="store_true",
+                       help="replace an earlier run or dataset in --out (its files are deleted first)")
     _record_option(drive)
 
     run = commands.add_parser(
@@ -162,7 +174,13 @@ def _parser() -> argparse.ArgumentParser:
                      help="frames per second when the ground truth gives no times (default: 10)")
     run.add_argument("--max-frames", type=_positive_int, help="use only the first N frames")
     _slam_options(run, sessions=True)
+    run.add_argument("--odometry", choices=["visual", "wheel"], default="visual",
+                     help="self-motion from the camera (visual odometry), or from the wheel odometry the folder "
+                     "holds (wheel_odometry.tum, as neuroslam record writes it) with the camera's pitch for the "
+                     "height rate (default: visual)")
     run.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
+    run.add_argument("--overwrite", action="store_true",
+                       help="replace an earlier run or dataset in --out (its files are deleted first)")
     _record_option(run)
 
     record = commands.add_parser(
@@ -173,6 +191,8 @@ def _parser() -> argparse.ArgumentParser:
     record.add_argument("world", help="built-in world name, gen:SEED, or an MJCF file")
     _drive_options(record, laps=1, camera=True)
     record.add_argument("--out", type=Path, required=True, help="dataset folder to write")
+    record.add_argument("--overwrite", action="store_true",
+                       help="replace an earlier run or dataset in --out (its files are deleted first)")
 
     calibrate = commands.add_parser(
         "calibrate", help="fit the visual-odometry gains to ground truth and write a config file",
@@ -184,6 +204,7 @@ def _parser() -> argparse.ArgumentParser:
     _drive_options(calibrate, laps=1, camera=False)
     _slam_options(calibrate)
     calibrate.add_argument("--out", type=Path, required=True, help="TOML file to write")
+    calibrate.add_argument("--overwrite", action="store_true", help="replace the file --out names")
 
     compare = commands.add_parser(
         "compare-maps", help="the RMSE between two experience maps after 4-DoF ICP registration",
@@ -241,6 +262,8 @@ def _parser() -> argparse.ArgumentParser:
     nav.add_argument("--num-envs", type=_positive_int, default=1,
                      help="run episodes in a gymnasium async vector env of this many copies (spawned processes)")
     nav.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
+    nav.add_argument("--overwrite", action="store_true",
+                       help="replace an earlier run or dataset in --out (its files are deleted first)")
 
     commands.add_parser("worlds", help="list the built-in worlds with their levels and routes",
                         description="List the built-in worlds with their floor levels and routes.")
@@ -248,105 +271,24 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _drive(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
-
     import sim  # the simulator is only needed here; importing it selects headless rendering
 
-    from ..evaluation import observation_shares, run_metrics
-    from ..inertial import GravityPitch
-    from ..tum import write_tum, yaw_quaternion
-    from ..vision.odometry import Observed, SelfMotion
-    from ..vision.preprocessing import grey
+    from .frames import DriveStream
 
     slam, book = _slam_from(args)
     if args.load_map:
         slam.begin_session(start=args.start)
-    gravity = GravityPitch()
-
     world, route_name = _world_and_route(args)
     camera = _camera(args, panoramic=args.panoramic)
     drive = sim.ScriptedDrive(world, route=route_name, laps=args.laps, speed=args.speed,
                               camera_rate=args.camera_rate, max_frames=args.max_frames, seed=args.seed,
                               camera=camera, quality=args.quality)
-    out = args.out or Path("runs") / f"drive-{world.name.replace(':', '_')}-{time.strftime('%Y%m%d-%H%M%S')}"
-    out.mkdir(parents=True, exist_ok=True)
-    recorder = _recorder(args, out, f"{world.name}/{drive.route.name}")
-    times, truths, odometry, estimates, self_motion, active, observed = [], [], [], [], [], [], []
-    closures, merges = [], []  # (frame, true pose and level where the re-entered / merged-at experience was made)
-    slam_seconds = 0.0
-    previous_time = None
-    started = time.perf_counter()
-    with tqdm(total=int(drive.total_distance), unit="m", desc=f"{world.name}/{drive.route.name}") as bar:
-        for frame in drive:
-            slam_started = time.perf_counter()
-            motion = None
-            dt = 0.0 if previous_time is None else frame.time - previous_time
-            if args.odometry == "visual-inertial":  # the camera for speed and turn; the IMU for the pitch
-                visual = slam.visual_odometry.step(grey(frame.image), dt)
-                pitch = gravity.step(frame.imu.accelerometer, dt)
-                seen = None if visual.observed is None else Observed(visual.observed.distance, visual.observed.yaw)
-                motion = SelfMotion(visual.forward_speed, visual.yaw_rate, visual.forward_speed * math.sin(pitch), seen)
-            elif args.odometry == "wheel":  # encoders for speed and turn; the camera for the pitch
-                visual = slam.visual_odometry.step(grey(frame.image), dt)
-                seen = None if visual.observed is None else Observed(height=visual.observed.height)
-                speed = frame.odometry.forward_speed
-                motion = SelfMotion(speed, frame.odometry.yaw_rate, slam.visual_odometry.climb_rate_at(speed), seen)
-            estimate = slam.step(frame.image, frame.time, odometry=motion)
-            slam_seconds += time.perf_counter() - slam_started
-            previous_time = frame.time
-            times.append(frame.time)
-            truths.append(frame.ground_truth)
-            book.add_frame(frame.time, frame.ground_truth.pose, frame.ground_truth.level)
-            odometry.append(frame.odometry)
-            estimates.append(estimate.pose)
-            active.append((estimate.template_id, estimate.experience_id))
-            observed.append(estimate.self_motion.observed)
-            _note_events(estimate, len(times) - 1, book, closures, merges)
-            self_motion.append(slam.odometry_pose)
-            if recorder is not None:
-                recorder.log_frame(frame.time, frame.image, slam, estimate, frame.ground_truth.pose)
-            bar.update(min(int(frame.progress), bar.total) - bar.n)
-    if recorder is not None:
-        recorder.close()
-    elapsed = time.perf_counter() - started
-    times = np.array(times)
-    positions = np.array([t.position for t in truths])
-    write_tum(out / "groundtruth.tum", times, positions, np.array([t.quaternion for t in truths]))
-    write_tum(out / "wheel_odometry.tum", times, np.array([[o.x, o.y, 0.0] for o in odometry]),
-              yaw_quaternion(np.array([o.yaw for o in odometry])))
-    online, self_motion = np.array(estimates), np.array(self_motion)
-    estimates = slam.trajectory()
-    _write_slam(out, times, estimates, online, self_motion, slam)
-    experience_map = slam.experience_map
-    frames = len(times)
-    true_levels = np.array([t.level for t in truths])
-    scores = run_metrics(
-        truth=np.array([t.pose for t in truths]), true_levels=true_levels, levels=np.array(world.levels),
-        estimate=estimates, odometry=self_motion, online_estimate=online,
-        **_event_arguments(slam, book, closures, merges if args.load_map else None))
-    _save_map(slam, out, book, {"world": world.name, "route": drive.route.name})
-    summary = {
-        "world": world.name,
-        "route": drive.route.name,
-        "frames": frames,
-        "laps": drive.laps_completed,
-        **_path_summary(positions, true_levels, world.levels),
-        "odometry": args.odometry,
-        "templates": slam.local_view.count,
-        "experiences": experience_map.size,
-        "map_components": len(np.unique(experience_map.components)),
-        **scores,
-        **observation_shares(observed),
-        "ms_per_frame": {
-            "slam": 1000 * slam_seconds / frames,
-            "physics": 1000 * drive.timings["physics"] / frames,
-            "render": 1000 * drive.timings["render"] / frames,
-            "total": 1000 * elapsed / frames,
-        },
-    }
-    (out / "metrics.json").write_text(json.dumps(summary, indent=2) + "\n")
-    _report(out / "report.png", f"{world.name} / {drive.route.name}: {args.odometry} odometry", times,
-            np.array([t.pose for t in truths]), estimates, self_motion, slam, np.array(active))
+    out = _output_folder(args, Path("runs") / f"drive-{world.name.replace(':', '_')}-{time.strftime('%Y%m%d-%H%M%S')}")
+    result = _run_stream(DriveStream(drive), slam, book, args, out)
+    if result is None:
+        return 130
+    summary = result.metrics()
+    frames, times = result.frames, result.times
     rows = [
         ("world / route", f"{world.name} / {drive.route.name}"),
         ("frames", f"{frames} ({times[-1]:.1f} s simulated)"),
@@ -369,83 +311,52 @@ def _drive(args: argparse.Namespace) -> int:
         rows.insert(-3, ("sessions", f"{summary['merges']} merges at frames {summary['merge_frames']} "
                                      f"({summary['false_merges']} false); {summary['map_components']} separate maps"))
     _print_rows(rows)
-    return 0
+    return 130 if result.interrupted else 0
 
 
-def _path_summary(positions: np.ndarray | None, true_levels: np.ndarray | None, levels) -> dict:
-    """metrics.json's ``distance_m``, ``levels``, ``levels_visited`` and ``height_range_m`` of a run's true
-    positions (N × 3, m; None when unknown, and then those keys are None but ``levels``)."""
-    known = positions is not None
-    return {"distance_m": float(np.sum(np.linalg.norm(np.diff(positions, axis=0), axis=1))) if known else None,
-            "levels": None if levels is None else list(levels),
-            "levels_visited": None if true_levels is None else sorted({int(level) for level in true_levels}),
-            "height_range_m": [float(positions[:, 2].min()), float(positions[:, 2].max())] if known else None}
+# files that mark a folder as an earlier neuroslam run, recording, dataset or navigation experiment
+_OUTPUT_MARKERS = ("metrics.json", "map.npz", "dataset.json", "frames", "groundtruth.tum", "run.rrd", "episodes.csv")
 
 
-def _write_slam(out: Path, times: np.ndarray, estimates: np.ndarray, online: np.ndarray, self_motion: np.ndarray,
-                slam) -> None:
-    """slam.tum (every frame in the final map), slam_online.tum (the estimate as it was at each frame),
-    odometry.tum and experiences.tum of a run."""
-    from ..tum import write_tum, yaw_quaternion
+def _output_folder(args: argparse.Namespace, default: Path) -> Path:
+    """The folder ``--out`` names (or ``default``), made ready to write into: a new or empty folder is used
+    as it is; one that holds an earlier run or dataset is refused unless ``--overwrite``, which clears it;
+    a file, or a folder of other files, is refused."""
+    import shutil
 
-    write_tum(out / "slam.tum", times, estimates[:, :3], yaw_quaternion(estimates[:, 3]))
-    write_tum(out / "slam_online.tum", times, online[:, :3], yaw_quaternion(online[:, 3]))
-    write_tum(out / "odometry.tum", times, self_motion[:, :3], yaw_quaternion(self_motion[:, 3]))
-    experience_map = slam.experience_map
-    write_tum(out / "experiences.tum", experience_map.creation_times, experience_map.poses[:, :3],
-              yaw_quaternion(experience_map.poses[:, 3]))
+    from ..errors import InvalidParameterError
 
-
-def _note_events(estimate, frame: int, book: _Truths, closures: list, merges: list) -> None:
-    """Keep a frame's loop closure or merge with the ground truth of the experience it joined (looked up now:
-    a later merge may renumber the experiences)."""
-    for happened, events in ((estimate.loop_closure, closures), (estimate.merged, merges)):
-        if happened:
-            poses, levels = book.of([estimate.experience_id])
-            events.append((frame, poses[0, :3], levels[0]))
-
-
-def _event_arguments(slam, book: _Truths, closures: list, merges: list | None) -> dict:
-    """The map, loop-closure and merge arguments of :func:`~neuroslam.evaluation.run_metrics`. The map scored
-    is the robot's (after merges, the merged map); loaded maps it never met are separate maps in frames of
-    their own, so they are left out (``map_components`` in metrics.json counts them)."""
-    themap = slam.experience_map
-    mine = np.flatnonzero(themap.components == themap.component)
-    experience_truth, experience_levels = book.of(mine)
-
-    def columns(events: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        return (np.array([frame for frame, _, _ in events], dtype=int),
-                np.array([pose for _, pose, _ in events]).reshape(-1, 3),
-                np.array([level for _, _, level in events], dtype=int))
-
-    closure_frames, closure_truth, closure_levels = columns(closures)
-    arguments = {"experience_positions": themap.poses[mine, :3], "experience_truth": experience_truth[:, :3],
-                 "experience_levels": experience_levels, "closure_frames": closure_frames,
-                 "closure_truth": closure_truth, "closure_levels": closure_levels}
-    if merges is not None:
-        arguments["merge_frames"], arguments["merge_truth"], arguments["merge_levels"] = columns(merges)
-    return arguments
+    out = args.out or default
+    if out.exists() and not out.is_dir():
+        raise InvalidParameterError("--out", str(out), "is a file; name a folder")
+    if out.is_dir() and any(out.iterdir()):
+        if not any((out / name).exists() for name in _OUTPUT_MARKERS):
+            raise InvalidParameterError("--out", str(out), "holds files neuroslam did not write; name another folder")
+        if not args.overwrite:
+            raise InvalidParameterError("--out", str(out), "holds an earlier run or dataset; add --overwrite to "
+                                        "replace it, or name another folder")
+        shutil.rmtree(out)
+    out.mkdir(parents=True, exist_ok=True)
+    return out
 
 
-def _save_map(slam, out: Path, book: _Truths, metadata: dict) -> None:
-    """out/map.npz, the final map, with each experience's true pose and level where it was made
-    (``experience_truth``, ``experience_levels``; NaN and -1 where unknown), so that later sessions which
-    load the map can score the merged map."""
-    from ..slam import MAP_FILE
+def _run_stream(stream, slam, book, args: argparse.Namespace, out: Path):
+    """The runner over ``stream`` with the options' odometry and recording; its outputs written into ``out``.
+    Returns the :class:`~neuroslam.lab.runner.Run`, or None when Ctrl-C came before the first frame (then
+    ``out`` is removed if it is empty)."""
+    from .runner import run
 
-    poses, levels = book.of(np.arange(slam.experience_map.size))
-    slam.save(out / MAP_FILE, extra={"experience_truth": poses, "experience_levels": levels}, metadata=metadata)
-
-
-def _report(path: Path, title: str, times: np.ndarray, truth: np.ndarray | None, estimates: np.ndarray,
-            self_motion: np.ndarray, slam, active: np.ndarray) -> None:
-    """report.png of a run."""
-    from .plots import plot_report
-
-    experience_map = slam.experience_map
-    plot_report(truth=truth, odometry=self_motion, estimate=estimates, experiences=experience_map.poses,
-                experience_frames=np.searchsorted(times, experience_map.creation_times), links=experience_map.links,
-                template_ids=active[:, 0], experience_ids=active[:, 1], times=times, title=title, path=path)
+    recorder = _recorder(args, out, stream.name)
+    result = run(stream, slam, odometry=getattr(args, "odometry", "visual"), book=book, recorder=recorder)
+    if result.frames == 0 and result.interrupted:
+        if not any(out.iterdir()):
+            out.rmdir()
+        print("interrupted before the first frame: nothing written", file=sys.stderr)
+        return None
+    result.write(out)
+    if result.interrupted:
+        print(f"interrupted after {result.frames} frames: wrote what was done into {out}", file=sys.stderr)
+    return result
 
 
 def _print_rows(rows: list[tuple[str, str]]) -> None:
@@ -457,11 +368,12 @@ def _print_rows(rows: list[tuple[str, str]]) -> None:
 def _slam_from(args: argparse.Namespace):
     """The NeuroSLAM the options ask for: a preset and config file, or the maps of earlier sessions.
 
-    Returns (slam, truths): the :class:`_Truths` book of every experience's ground truth."""
+    Returns (slam, book): the :class:`~neuroslam.lab.runner.ExperienceTruth` of every loaded experience."""
     from .. import presets
     from ..config import load_config
     from ..errors import InvalidParameterError
     from ..slam import NeuroSLAM
+    from .runner import ExperienceTruth, load_sessions
 
     maps = getattr(args, "load_map", [])
     if not maps:
@@ -471,167 +383,55 @@ def _slam_from(args: argparse.Namespace):
         if args.integrator is not None:
             config = config.replace(integrator=args.integrator)
         slam = NeuroSLAM(config)
-        return slam, _Truths(slam, np.zeros((0, 4)), np.zeros(0, dtype=int))
+        return slam, ExperienceTruth(slam)
     if args.preset is not None or args.config is not None or args.integrator is not None:
         raise InvalidParameterError("--load-map", str(maps[0]), "keeps the configuration its map was built with; "
                                     "leave out --preset, --config and --integrator")
-    slam, poses, levels = None, [], []
-    for path in maps:
-        loaded = NeuroSLAM.load(path)
-        size = loaded.experience_map.size
-        poses.append(loaded.map_extra.get("experience_truth", np.full((size, 4), np.nan)))
-        levels.append(loaded.map_extra.get("experience_levels", np.full(size, -1)))
-        if slam is None:
-            slam = loaded
-        else:
-            slam.add_map(loaded)
-    return slam, _Truths(slam, np.concatenate(poses), np.concatenate(levels))
-
-
-class _Truths:
-    """The ground truth of every experience, across sessions: this session's from its frames, the loaded
-    maps' from the truth saved with them (``experience_truth`` and ``experience_levels`` in the map file;
-    NaN and -1 when a map was saved without ground truth). An experience is identified by (session,
-    creation time), which survives merges and fusions; ``loaded_poses``/``loaded_levels`` are in the order
-    of the loaded experiences."""
-
-    def __init__(self, slam, loaded_poses: np.ndarray, loaded_levels: np.ndarray):
-        self.slam = slam
-        themap = slam.experience_map
-        self.loaded = {(int(session), float(time)): (np.asarray(pose, dtype=float), int(level))
-                       for session, time, pose, level in zip(themap.sessions, themap.creation_times, loaded_poses,
-                                                             loaded_levels, strict=True)}
-        self.times: list[float] = []
-        self.poses: list[np.ndarray] = []
-        self.levels: list[int] = []
-
-    def add_frame(self, time: float, pose: np.ndarray | None, level: int = -1) -> None:
-        """This session's next frame: its time, true pose (None if unknown) and level."""
-        self.times.append(time)
-        self.poses.append(np.full(4, np.nan) if pose is None else np.asarray(pose, dtype=float))
-        self.levels.append(level)
-
-    def of(self, experiences) -> tuple[np.ndarray, np.ndarray]:
-        """(K, 4) true poses and (K,) true levels where the given experiences were made."""
-        themap = self.slam.experience_map
-        poses, levels = [], []
-        for experience in np.asarray(experiences, dtype=int).reshape(-1):
-            session, time = int(themap.sessions[experience]), float(themap.creation_times[experience])
-            if session == themap.session and self.times:
-                frame = min(int(np.searchsorted(self.times, time)), len(self.times) - 1)
-                pose, level = self.poses[frame], self.levels[frame]
-            else:
-                pose, level = self.loaded.get((session, time), (np.full(4, np.nan), -1))
-            poses.append(pose)
-            levels.append(level)
-        return np.array(poses).reshape(-1, 4), np.array(levels, dtype=int)
+    return load_sessions(maps)
 
 
 def _run(args: argparse.Namespace) -> int:
     """NeuroSLAM on a folder of recorded frames."""
-    from tqdm import tqdm
+    from .frames import FolderStream
 
-    from ..datasets import (
-        DatasetError,
-        check_frame_sizes,
-        check_levels,
-        frame_times,
-        list_frames,
-        load_frame,
-        read_description,
-        read_groundtruth,
-    )
-    from ..evaluation import nearest_level, observation_shares, run_metrics
+    wheel_odometry = None
+    if args.odometry != "visual":
+        wheel_odometry = Path(args.frames) / "wheel_odometry.tum"
+        if not wheel_odometry.is_file():
+            from ..errors import InvalidParameterError
 
-    frames = list_frames(args.frames)
-    description = read_description(args.frames)
-    levels = check_levels(args.levels, "--levels") if args.levels is not None else description.levels
-    groundtruth = read_groundtruth(args.groundtruth) if args.groundtruth is not None else None
-    if groundtruth is not None and len(groundtruth.positions) != len(frames):
-        raise DatasetError(f"ground truth {str(args.groundtruth)!r}: {len(groundtruth.positions)} rows for "
-                           f"{len(frames)} frames (one row per frame)")
-    if args.max_frames is not None:
-        frames = frames[: args.max_frames]
-    check_frame_sizes(frames)
-    if groundtruth is not None:
-        groundtruth = type(groundtruth)(groundtruth.positions[: len(frames)], groundtruth.yaw[: len(frames)],
-                                        None if groundtruth.times is None else groundtruth.times[: len(frames)])
-    times = frame_times(len(frames), groundtruth, args.rate)
+            raise InvalidParameterError("--odometry", args.odometry, f"needs {wheel_odometry}, which is missing")
+    stream = FolderStream(args.frames, groundtruth=args.groundtruth, wheel_odometry=wheel_odometry,
+                          levels=args.levels, rate=args.rate, max_frames=args.max_frames)
     slam, book = _slam_from(args)
     if args.load_map:
         slam.begin_session(start=args.start)
-    out = args.out or Path("runs") / f"run-{Path(args.frames).resolve().name}-{time.strftime('%Y%m%d-%H%M%S')}"
-    out.mkdir(parents=True, exist_ok=True)
-    recorder = _recorder(args, out, Path(args.frames).resolve().name)
-    truth = None if groundtruth is None else groundtruth.poses
-    # each frame's floor: the level nearest the true height, as the simulator gives it (sim.World.level_of)
-    true_levels = None if truth is None or levels is None else nearest_level(truth[:, 2], levels)
-    estimates, self_motion, closures, merges, active, observed = [], [], [], [], [], []
-    started = time.perf_counter()
-    slam_seconds = 0.0
-    for index, path in enumerate(tqdm(frames, unit="frame", desc=Path(args.frames).name)):
-        image = load_frame(path)
-        slam_started = time.perf_counter()
-        estimate = slam.step(image, float(times[index]))
-        slam_seconds += time.perf_counter() - slam_started
-        book.add_frame(float(times[index]), None if truth is None else truth[index],
-                       -1 if true_levels is None else int(true_levels[index]))
-        if recorder is not None:
-            recorder.log_frame(float(times[index]), image, slam, estimate, None if truth is None else truth[index])
-        estimates.append(estimate.pose)
-        active.append((estimate.template_id, estimate.experience_id))
-        observed.append(estimate.self_motion.observed)
-        self_motion.append(slam.odometry_pose)
-        _note_events(estimate, index, book, closures, merges)
-    if recorder is not None:
-        recorder.close()
-    elapsed = time.perf_counter() - started
-    online, self_motion = np.array(estimates), np.array(self_motion)
-    estimates = slam.trajectory()
-    _write_slam(out, times, estimates, online, self_motion, slam)
-    _save_map(slam, out, book, {"frames": str(Path(args.frames).resolve())})
-    experience_map = slam.experience_map
-    positions = None if groundtruth is None else groundtruth.positions
-    metrics = {"world": description.world or Path(args.frames).resolve().name, "route": description.route,
-               "frames": len(frames),
-               **_path_summary(positions, true_levels, levels),
-               "odometry": "visual", "templates": slam.local_view.count, "experiences": experience_map.size,
-               "map_components": len(np.unique(experience_map.components)),
-               "loop_closures": experience_map.loop_closures}
-    if args.load_map:
-        metrics.update(merges=len(slam.merges), merge_frames=[frame for frame, _ in slam.merges])
-    if groundtruth is not None:
-        metrics.update(run_metrics(
-            truth=groundtruth.poses, true_levels=true_levels, levels=None if levels is None else np.array(levels),
-            estimate=estimates, odometry=self_motion, online_estimate=online,
-            **_event_arguments(slam, book, closures, merges if args.load_map else None)))
-    metrics.update(observation_shares(observed))
-    # recorded frames: no physics and no rendering; "read" is decoding the image files
-    metrics["ms_per_frame"] = {"slam": 1000 * slam_seconds / len(frames), "physics": None, "render": None,
-                               "read": 1000 * (elapsed - slam_seconds) / len(frames),
-                               "total": 1000 * elapsed / len(frames)}
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
-    _report(out / "report.png", Path(args.frames).name, times, None if groundtruth is None else groundtruth.poses,
-            estimates, self_motion, slam, np.array(active))
-    rows = [("frames", str(len(frames)))]
-    if positions is not None:
+    name = Path(args.frames).resolve().name
+    out = _output_folder(args, Path("runs") / f"run-{name}-{time.strftime('%Y%m%d-%H%M%S')}")
+    result = _run_stream(stream, slam, book, args, out)
+    if result is None:
+        return 130
+    metrics = result.metrics()
+    truth, levels = result.truth, stream.levels
+    rows = [("frames", str(result.frames))]
+    if truth is not None:
         rows.append(("distance", f"{metrics['distance_m']:.1f} m"))
-    if true_levels is not None:
+    if result.true_levels is not None:
         rows.append(("levels visited", f"{metrics['levels_visited']} of {list(range(len(levels)))}"))
-    false = "" if groundtruth is None else f" ({metrics['false_loop_closures']} false)"
+    false = "" if truth is None else f" ({metrics['false_loop_closures']} false)"
     rows.append(("map", f"{metrics['templates']} templates, {metrics['experiences']} experiences, "
                         f"{metrics['loop_closures']} loop closures{false}"))
-    if groundtruth is not None:
+    if truth is not None:
         rows.append(("ATE (Sim(3))", f"SLAM {_metres(metrics['ate_rmse_m']['slam'])} "
                                      f"(online {_metres(metrics['ate_rmse_m']['slam_online'])}), "
-                                     f"odometry {_metres(metrics['ate_rmse_m']['odometry'])}"))
+                                     f"{args.odometry} odometry {_metres(metrics['ate_rmse_m']['odometry'])}"))
         if metrics["level_accuracy"] is not None:
             rows.append(("level accuracy", f"{metrics['level_accuracy']:.2f}"))
     rows += [("ms per frame", "SLAM {slam:.2f}, reading images {read:.2f}, total {total:.2f}".format(
                  **metrics["ms_per_frame"])),
              ("output", str(out))]
     _print_rows(rows)
-    return 0
+    return 130 if result.interrupted else 0
 
 
 def _record(args: argparse.Namespace) -> int:
@@ -643,27 +443,28 @@ def _record(args: argparse.Namespace) -> int:
 
     from ..datasets import DatasetDescription, write_description
     from ..tum import write_tum, yaw_quaternion
+    from .frames import DriveStream
 
     world, route = _world_and_route(args)
-    drive = sim.ScriptedDrive(world, route=route, laps=args.laps, speed=args.speed, max_frames=args.max_frames,
-                              seed=args.seed, camera=_camera(args))
-    out = args.out
-    (out / "frames").mkdir(parents=True, exist_ok=True)
-    times, truths, odometry = [], [], []
-    with tqdm(total=int(drive.total_distance), unit="m", desc=f"record {world.name}") as bar:
-        for frame in drive:
+    stream = DriveStream(sim.ScriptedDrive(world, route=route, laps=args.laps, speed=args.speed,
+                                           max_frames=args.max_frames, seed=args.seed, camera=_camera(args)))
+    out = _output_folder(args, args.out)
+    (out / "frames").mkdir()
+    times, truths, wheels = [], [], []
+    with tqdm(total=int(stream.total), unit=stream.unit, desc=f"record {world.name}") as bar:
+        for frame in stream:
             Image.fromarray(frame.image).save(out / "frames" / f"{frame.index:06d}.png")
             times.append(frame.time)
-            truths.append(frame.ground_truth)
-            odometry.append(frame.odometry)
+            truths.append(frame.truth)
+            wheels.append(frame.wheels)
             bar.update(min(int(frame.progress), bar.total) - bar.n)
     times = np.array(times)
-    write_tum(out / "groundtruth.tum", times, np.array([t.position for t in truths]),
+    write_tum(out / "groundtruth.tum", times, np.array([t.pose[:3] for t in truths]),
               np.array([t.quaternion for t in truths]))
-    write_tum(out / "wheel_odometry.tum", times, np.array([[o.x, o.y, 0.0] for o in odometry]),
-              yaw_quaternion(np.array([o.yaw for o in odometry])))
-    write_description(out, DatasetDescription(world.name, drive.route.name, tuple(world.levels)))
-    _print_rows([("world / route", f"{world.name} / {drive.route.name}"), ("frames", str(len(times))),
+    write_tum(out / "wheel_odometry.tum", times, np.array([[w.x, w.y, 0.0] for w in wheels]),
+              yaw_quaternion(np.array([w.yaw for w in wheels])))
+    write_description(out, DatasetDescription(world.name, stream.drive.route.name, tuple(world.levels)))
+    _print_rows([("world / route", f"{world.name} / {stream.drive.route.name}"), ("frames", str(len(times))),
                  ("output", str(out))])
     return 0
 
@@ -676,11 +477,15 @@ def _calibrate(args: argparse.Namespace) -> int:
 
     import sim
 
+    from ..errors import InvalidParameterError
     from ..geometry import wrap
     from ..vision.calibration import fit_odometry_gains
     from ..vision.odometry import VisualOdometry
     from ..vision.preprocessing import grey
 
+    if args.out.is_dir() or (args.out.exists() and not args.overwrite):
+        raise InvalidParameterError("--out", str(args.out), "is a folder; name a file" if args.out.is_dir()
+                                    else "exists; add --overwrite to replace it, or name another file")
     base = _slam_from(args)[0].config
     # the raw row-shift pitch changes are eqs. 31-32's ("profile"), whose gains are fitted; the "transitions"
     # height (eqs. R1-R3) has none
@@ -818,8 +623,7 @@ def _nav(args: argparse.Namespace) -> int:
         from ..slam import NeuroSLAM
 
         NeuroSLAM.load(args.load_map)
-    out = args.out or Path("runs") / f"nav-{time.strftime('%Y%m%d-%H%M%S')}"
-    out.mkdir(parents=True, exist_ok=True)
+    out = _output_folder(args, Path("runs") / f"nav-{time.strftime('%Y%m%d-%H%M%S')}")
     episodes = []
     with tqdm(total=len(args.worlds) * args.episodes, unit="episode", desc="nav") as bar:
         for name in args.worlds:

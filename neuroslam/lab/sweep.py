@@ -1,8 +1,9 @@
 """Many drives at once on Ray: every (world, seed, parameter setting) as one task (``neuroslam sweep``).
 
 Glue, like the command line: it imports Ray (an optional extra, ``pip install "neuroslam[scale]"``) and,
-inside each task, the simulator. Each task runs ``neuroslam drive`` in its worker process with its own
-output folder, and returns that drive's ``metrics.json`` (or its one-line error). The results land in
+inside each task, the simulator. Each task builds its configuration and runs the runner
+(:func:`neuroslam.lab.runner.run`) on a scripted drive in its worker process, as ``neuroslam drive`` does, with
+its own output folder, and returns that drive's ``metrics.json`` (or its one-line error). The results land in
 ``results.csv``, one row per drive: ``world, seed, status`` (``ok`` or ``failed``), ``error``, the grid's
 values, and every number of the drive's metrics flattened with dots (``ate_rmse_m.slam``, ...). Running
 the same sweep into the same folder again skips the drives already ``ok``.
@@ -128,36 +129,35 @@ ODOMETRY = ("visual", "wheel", "visual-inertial")
 
 
 def _run_drive(world: str, seed: int, setting: tuple, laps: int, max_frames: int | None, folder: str,
-               odometry: str = "visual", camera: tuple[str, ...] = ()) -> dict:
-    """One drive in a worker process: ``neuroslam drive`` with the setting as a config file; its metrics, or
-    the one-line error of a failed drive."""
-    import contextlib
-    import io
+               odometry: str = "visual", camera: dict[str, float] | None = None) -> dict:
+    """One drive in a worker process, as ``neuroslam drive`` makes it: the ``sim`` preset with the setting
+    over it, the runner on a scripted drive, every output into ``folder``. Returns its metrics, or the
+    one-line error of a failed drive (bad input or a bug: the sweep goes on)."""
+    import sim
 
-    from .cli import main
+    from .. import presets
+    from ..config import Config
+    from ..slam import NeuroSLAM
+    from .frames import DriveStream
+    from .runner import run
 
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
-    arguments = ["drive", world, "--seed", str(seed), "--laps", str(laps), "--out", str(out), "--odometry", odometry,
-                 *camera]
-    if max_frames is not None:
-        arguments += ["--max-frames", str(max_frames)]
-    if setting:
-        config = {}
-        for field, value in setting:
-            _merge(config, _nested(field, value))
-        (out / "setting.json").write_text(json.dumps(config))
-        arguments += ["--config", str(out / "setting.json")]
-    errors = io.StringIO()
     try:
-        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(errors):
-            code = main(arguments)
-    except Exception as error:  # a bug, not bad input: still one row, the sweep goes on
+        config = presets.get("sim")
+        if setting:
+            overrides: dict = {}
+            for field, value in setting:
+                _merge(overrides, _nested(field, value))
+            (out / "setting.json").write_text(json.dumps(overrides))
+            config = Config.from_dict(overrides, base=config)
+        drive = sim.ScriptedDrive(world, laps=laps, max_frames=max_frames, seed=seed,
+                                  camera=sim.CameraConfig(**(camera or {})))
+        result = run(DriveStream(drive), NeuroSLAM(config), odometry=odometry, progress=False)
+        result.write(out)
+        return {"status": "ok", "metrics": result.metrics()}
+    except Exception as error:  # one row either way: the sweep goes on
         return {"status": "failed", "error": f"{type(error).__name__}: {error}".splitlines()[0]}
-    if code != 0:
-        lines = [line for line in errors.getvalue().splitlines() if line.strip()]
-        return {"status": "failed", "error": lines[-1] if lines else f"exit code {code}"}
-    return {"status": "ok", "metrics": json.loads((out / "metrics.json").read_text())}
 
 
 def _read_results(path: Path) -> list[dict[str, str]]:
@@ -204,8 +204,6 @@ def run_sweep(worlds: list[str], seeds: int, grid: list[tuple], out: Path, *, la
     unknown = set(camera) - {"read_noise", "shot_noise", "exposure"}
     if unknown:
         raise InvalidParameterError("camera", sorted(unknown), "knows read_noise, shot_noise and exposure")
-    camera_arguments = tuple(item for name, value in sorted(camera.items())
-                             for item in (f"--{name.replace('_', '-')}", repr(value)))
     out.mkdir(parents=True, exist_ok=True)
     results = out / "results.csv"
     grid_fields = sorted({field for setting in grid for field, _ in setting})
@@ -234,7 +232,7 @@ def run_sweep(worlds: list[str], seeds: int, grid: list[tuple], out: Path, *, la
         try:
             task = ray.remote(num_cpus=1)(_run_drive)
             futures = {task.remote(drive.world, drive.seed, drive.setting, laps, max_frames,
-                                   str(out / "drives" / drive.folder_name), odometry, camera_arguments): drive
+                                   str(out / "drives" / drive.folder_name), odometry, camera): drive
                        for drive in pending}
             remaining = list(futures)
             with tqdm(total=len(futures), unit="drive", desc="sweep", disable=not progress) as bar:

@@ -95,28 +95,28 @@ class Region:
 
 @dataclass(frozen=True)
 class VisualOdometryConfig:
-    """Visual odometry from scanline intensity profiles ("aidvo", eqs. 27–32).
+    """Visual odometry from scanline intensity profiles ("aidvo", NeuroSLAM eqs. 27–32).
 
     Attributes:
-        rotation_region: crop whose column profile gives the yaw rate (eqs. 27–29).
-        translation_region: crop whose profile difference gives the speed (eq. 30).
-        height_region: crop whose row profile gives pitch changes (eqs. 31–32).
+        rotation_region: crop whose column profile gives the yaw rate (NeuroSLAM eqs. 27–29).
+        translation_region: crop whose profile difference gives the speed (NeuroSLAM eq. 30).
+        height_region: crop whose row profile gives pitch changes (NeuroSLAM eqs. 31–32).
         profile_width: columns the rotation/translation profiles are resampled to.
         max_column_shift: largest profile shift searched, as a fraction of the profile width.
         max_row_shift: largest row shift searched, as a fraction of the height region's rows.
-        planar_motion: where speed and yaw come from: ``profile`` (the paper's eqs. 27–30: profile shift and
+        planar_motion: where speed and yaw come from: ``profile`` (the paper's NeuroSLAM eqs. 27–30: profile shift and
             difference) or ``ground`` (direct alignment of the floor under a ground-plane model, eqs. G1–G3
             of :mod:`neuroslam.vision.ground_motion`: metric from the camera height, independent of the
             scenery; pinhole cameras only).
         camera_height: the camera's height above the floor, m (for ``ground``).
         camera_forward: the camera's distance ahead of the robot's turning axis, m (for ``ground``).
         speed_scale: gain on the speed: metres per frame per unit of mean absolute profile difference (mu
-            of eq. 30) for ``profile``, a correction near 1 for ``ground``.
-        max_speed: speed clip, m/s (v_max of eq. 30). max_yaw_rate: yaw-rate clip, rad/s.
+            of NeuroSLAM eq. 30) for ``profile``, a correction near 1 for ``ground``.
+        max_speed: speed clip, m/s (v_max of NeuroSLAM eq. 30). max_yaw_rate: yaw-rate clip, rad/s.
         max_climb_rate: climb-rate clip, m/s (v_max^h).
-        height_model: how the pitch (and so the climb, speed × sin pitch) is followed: ``profile`` (eqs.
-            31–32: the height region's row shift integrated frame after frame, with the leak, bias and gain
-            below) or ``transitions`` (level floors joined by ramps: the rotation between frames by direct
+        height_model: how the pitch (and so the climb, speed × sin pitch) is followed: ``profile``
+            (NeuroSLAM eqs. 31–32: the height region's row shift integrated frame after frame, with the leak, bias
+            and gain below) or ``transitions`` (level floors joined by ramps: the rotation between frames by direct
             alignment, eqs. R1–R2, and pitch changes taken only as whole transitions, eq. R3, of
             :mod:`neuroslam.vision.pitch`; pinhole cameras only).
         pitch_leak: rate at which the integrated pitch relaxes to level, 1/s (``profile``).
@@ -306,7 +306,7 @@ class LocalViewConfig:
     Attributes:
         region: crop of the image the thumbnail is taken from.
         thumbnail: (rows, columns) of the thumbnail.
-        patch_size: side of the patch normalisation window, pixels (eq. 26), odd.
+        patch_size: side of the patch normalisation window, pixels (NeuroSLAM eq. 26), odd.
         max_row_shift, max_column_shift: shifts tried when matching, thumbnail pixels.
         threshold: largest mean absolute difference (of patch-normalised values) that still matches.
         candidates: templates pre-selected cheaply before the exact shifted comparison.
@@ -341,16 +341,16 @@ class LocalViewConfig:
 
 @dataclass(frozen=True)
 class GridCellConfig:
-    """3D grid cells (eqs. 1–11).
+    """3D grid cells (NeuroSLAM eqs. 1–11).
 
     Attributes:
         size: cells along (x, y, z). cell_size: metres per cell along (x, y, z).
-        excitation_width, excitation_variance: Gaussian excitatory kernel (eq. 1), cells and cells².
-        inhibition_width, inhibition_variance: Gaussian inhibitory kernel (eq. 4).
+        excitation_width, excitation_variance: Gaussian excitatory kernel (NeuroSLAM eq. 1), cells and cells².
+        inhibition_width, inhibition_variance: Gaussian inhibitory kernel (NeuroSLAM eq. 4).
         inhibition_scale: weight of the local inhibition (1 in the paper, which is unstable; see
             :mod:`neuroslam.cells.attractor`).
-        global_inhibition: phi of eq. 4, subtracted from every cell each frame.
-        view_injection: delta of eq. 11, strength of local view calibration.
+        global_inhibition: phi of NeuroSLAM eq. 4, subtracted from every cell each frame.
+        view_injection: delta of NeuroSLAM eq. 11, strength of local view calibration.
         readout_radius: half-width of the window of the circular-mean read-out, cells.
         shift: path integration by an exact phase ramp (``fourier``) or the paper's blend (``linear``).
     """
@@ -380,7 +380,7 @@ class GridCellConfig:
 
 @dataclass(frozen=True)
 class HeadDirectionConfig:
-    """Multilayered head-direction cells (eqs. 12–20): yaw × height.
+    """Multilayered head-direction cells (NeuroSLAM eqs. 12–20): yaw × height.
 
     Attributes:
         size: cells along (yaw, height). height_cell_size: metres per height cell.
@@ -417,19 +417,21 @@ class HeadDirectionConfig:
 
 @dataclass(frozen=True)
 class GridNetworkConfig:
-    """The Burak–Fiete periodic grid-cell network (grid-network paper, eqs. 1–5, Tables I–II).
+    """The Burak–Fiete periodic grid-cell network (grid-network paper, grid-network eqs. 1–5, Tables I–II).
 
     Attributes:
         size: n, neurons along each side of the n × n sheet (a torus).
-        time_constant: tau of eq. 1, ms. time_step: the Euler step of eq. 1, ms.
-        excitation_scale: alpha of eq. 3. lattice_period: the lambda with beta = 3 / lambda² of eq. 3, neurons.
-        surround_ratio: gamma / beta of eq. 3 (1.05).
-        weight_shift: l of eq. 2, neurons: each neuron's outgoing weights shifted along its preferred direction.
-        velocity_gain: eta of eq. 4.
-        velocity_scale: the velocity input of eq. 4 per m/s of the robot's speed; the pattern flows linearly
-            with its input (0.36 neurons per step per unit of eta × v) only while eta × this × speed stays
+        time_constant: tau of grid-network eq. 1, ms. time_step: the Euler step of grid-network eq. 1, ms.
+        excitation_scale: alpha of grid-network eq. 3. lattice_period: the lambda with beta = 3 / lambda² of
+            grid-network eq. 3, neurons.
+        surround_ratio: gamma / beta of grid-network eq. 3 (1.05).
+        weight_shift: l of grid-network eq. 2, neurons: each neuron's outgoing weights shifted along its
+            preferred direction.
+        velocity_gain: eta of grid-network eq. 4.
+        velocity_scale: the velocity input of grid-network eq. 4 per m/s of the robot's speed; the pattern flows
+            linearly with its input (0.36 neurons per step per unit of eta × v) only while eta × this × speed stays
             below about 0.04 (measured: beyond it the lattice deforms), so the default keeps 2 m/s there.
-        steps_per_frame: Euler steps of eq. 1 per camera frame (the accuracy/speed trade-off:
+        steps_per_frame: Euler steps of grid-network eq. 1 per camera frame (the accuracy/speed trade-off:
             ``benchmarks/grid_network.py``).
         search_radius: Delta of Table I, neurons: the read-out looks for the shift within ±Delta.
         settle_steps: steps at rest from a random start before use, so that the lattice forms.
@@ -464,7 +466,7 @@ class GridNetworkConfig:
                   surround_ratio=self.surround_ratio, velocity_scale=self.velocity_scale)
         _non_negative(path, weight_shift=self.weight_shift, velocity_gain=self.velocity_gain)
         _require(f"{path}.time_step", self.time_step, self.time_step <= self.time_constant,
-                 "must not exceed time_constant (the Euler step of eq. 1 would overshoot)")
+                 "must not exceed time_constant (the Euler step of grid-network eq. 1 would overshoot)")
         for name, low in (("steps_per_frame", 1), ("search_radius", 1), ("settle_steps", 0),
                           ("calibration_directions", 0)):
             value = getattr(self, name)
@@ -478,20 +480,20 @@ class GridNetworkConfig:
 
 @dataclass(frozen=True)
 class ExperienceMapConfig:
-    """Multilayered experience map (eqs. 21–25).
+    """Multilayered experience map (NeuroSLAM eqs. 21–25).
 
     Attributes:
-        view_weight, grid_weight, direction_weight: mu^lv, mu^gc, mu^hdc of eq. 22; the grid and
+        view_weight, grid_weight, direction_weight: mu^lv, mu^gc, mu^hdc of NeuroSLAM eq. 22; the grid and
             direction distances are in cells, the view term is 1 for a different template.
-        threshold: S_max of eq. 22; a score above it for every experience creates a new one.
-        correction: psi of eq. 25, per relaxation pass (scaled by each experience's number of links).
-        relaxation_passes: passes of eq. 25 after a loop closure.
-        idle_passes: passes of eq. 25 on frames without a loop closure.
-        relaxation: ``passes`` (the paper: ``relaxation_passes`` / ``idle_passes`` of eq. 25 per frame)
+        threshold: S_max of NeuroSLAM eq. 22; a score above it for every experience creates a new one.
+        correction: psi of NeuroSLAM eq. 25, per relaxation pass (scaled by each experience's number of links).
+        relaxation_passes: passes of NeuroSLAM eq. 25 after a loop closure.
+        idle_passes: passes of NeuroSLAM eq. 25 on frames without a loop closure.
+        relaxation: ``passes`` (the paper: ``relaxation_passes`` / ``idle_passes`` of NeuroSLAM eq. 25 per frame)
             or ``least-squares`` (the minimum of the link errors those passes reduce, solved directly after
             each loop closure; see :meth:`neuroslam.experience_map.ExperienceMap._solve`).
         loop_closure: ``code`` (the paper: re-entering any experience whose conjunctive code matches,
-            eq. 22, closes a loop) or ``confirmed`` (the rule of the grid-network paper, section III: a
+            NeuroSLAM eq. 22, closes a loop) or ``confirmed`` (the rule of the grid-network paper, section III: a
             loop closes only when more than ``confirmation_matches - 1`` of the last
             ``confirmation_window`` frames matched familiar views consistently, i.e. at old experiences
             laid out as the odometry of those frames says, within ``confirmation_tolerance`` metres;

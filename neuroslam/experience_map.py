@@ -1,12 +1,12 @@
-"""The multilayered experience map (eqs. 21–25): a graph of experiences linked by 4-DoF odometry.
+"""The multilayered experience map (NeuroSLAM eqs. 21–25): a graph of experiences linked by 4-DoF odometry.
 
-An experience (eq. 21) joins a conjunctive code (local view cell, 3D grid cell, head-direction cell)
+An experience (NeuroSLAM eq. 21) joins a conjunctive code (local view cell, 3D grid cell, head-direction cell)
 with a pose (x, y, z, yaw) in the map frame. Each frame the current code is scored against every
-experience (eq. 22, one vectorised pass); the best experience under the threshold becomes current, or a
-new experience is created at the odometric pose and linked from the current one (eqs. 23–24). A link
+experience (NeuroSLAM eq. 22, one vectorised pass); the best experience under the threshold becomes current, or a
+new experience is created at the odometric pose and linked from the current one (NeuroSLAM eqs. 23–24). A link
 stores the relative pose in its source's frame: distance, heading (direction of travel relative to the
 source's yaw), facing (yaw change) and height change, plus the time it took. Re-entering an existing
-experience closes a loop; relaxation (eq. 25) then pulls every pair of linked experiences towards the
+experience closes a loop; relaxation (NeuroSLAM eq. 25) then pulls every pair of linked experiences towards the
 relative pose their link stores, all links at once, each experience's correction divided by its
 number of links (a plain sum diverges at experiences with several links); or, with ``relaxation =
 "least-squares"`` (the ``sim`` default), the minimum of the same link errors is solved for directly
@@ -33,7 +33,8 @@ SETTLED = 1e-4  # m or rad: relaxation stops once no experience moves more than 
 LEAST_SQUARES_ITERATIONS = 3  # Gauss–Newton iterations at most per frame; an unfinished solve goes on next frame
 LEAST_SQUARES_SETTLED = 1e-3  # m or rad: the solve stops once no experience moves more than this
 LEAST_SQUARES_HALVINGS = 20  # step halvings tried before a Gauss–Newton step counts as no descent
-PASS_HALVINGS = 20  # halvings of an eq. 25 pass that would raise the total link error before the map counts as settled
+# halvings of a NeuroSLAM eq. 25 pass that would raise the total link error before the map counts as settled
+PASS_HALVINGS = 20
 LEAST_SQUARES_TRIGGER = 1e-2  # m or rad: a loop closure with a smaller error does not start a solve
 # what state_dict() saves: state name → (attribute, columns, dtype)
 _STATE_ARRAYS = {
@@ -305,7 +306,7 @@ class ExperienceMap:
 
     def _reexpress_links(self, replacement: np.ndarray) -> None:
         """Rewrite the relative pose of every link whose source or target ``replacement`` moves onto another
-        experience (eq. 23's link, composed with the moved end's pose relative to its replacement)."""
+        experience (NeuroSLAM eq. 23's link, composed with the moved end's pose relative to its replacement)."""
         links = self.links
         moved = np.flatnonzero((replacement[links[:, 0]] != links[:, 0]) | (replacement[links[:, 1]] != links[:, 1]))
         if len(moved) == 0:
@@ -361,18 +362,18 @@ class ExperienceMap:
     # per frame ----------------------------------------------------------------------------------------
     def integrate(self, distance: float, yaw_change: float, height_change: float, drift: float = 0.0) -> None:
         """Add one frame of self-motion (m, rad, m) to the odometry since the current experience; ``drift``
-        (rad) turns the direction of travel off the heading (the grid network's read-out, eq. 5)."""
+        (rad) turns the direction of travel off the heading (the grid network's read-out, grid-network eq. 5)."""
         heading = self.relative[3] + yaw_change / 2 + drift
         self.relative += [distance * math.cos(heading), distance * math.sin(heading), height_change, yaw_change]
         self.odometer += abs(distance)
 
     def scores(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray) -> np.ndarray:
-        """Eq. 22 against every experience: weighted view mismatch plus wrapped code distances (cells)."""
+        """NeuroSLAM eq. 22 against every experience: weighted view mismatch plus wrapped code distances (cells)."""
         view = (self.template_ids != template_id).astype(float)
         return self.config.view_weight * view + self.code_scores(np.arange(self.size), grid_code, direction_code)
 
     def code_scores(self, experiences: np.ndarray, grid_code: np.ndarray, direction_code: np.ndarray) -> np.ndarray:
-        """Eq. 22's code terms against ``experiences`` (ids): weighted wrapped code distances (cells)."""
+        """NeuroSLAM eq. 22's code terms against ``experiences`` (ids): weighted wrapped code distances (cells)."""
         config = self.config
         return (config.grid_weight * wrapped_distance(self.grid_codes[experiences], grid_code, self.grid_size)
                 + config.direction_weight * wrapped_distance(self.direction_codes[experiences], direction_code,
@@ -403,7 +404,7 @@ class ExperienceMap:
         ``place`` (an experience id of this view, or -1): the place a run of views confirmed; a loop closes
         there, not at whichever other experience of the view scores best (along a corridor a view has
         experiences every metre or two, and the drifted codes may lie nearer a neighbour of the confirmed
-        one). When eq. 22 re-enters the current experience
+        one). When NeuroSLAM eq. 22 re-enters the current experience
         or one linked to it, that stands (the robot follows the map; no loop closes).
         """
         if self.current < 0:
@@ -484,7 +485,7 @@ class ExperienceMap:
         self.current = self.size - 1
 
     def _link(self, source: int, target: int, time: float, *, weight: float = 1.0) -> None:
-        """Link ``source`` → ``target`` with the odometry accumulated since ``source`` (eq. 23); ``weight``
+        """Link ``source`` → ``target`` with the odometry accumulated since ``source`` (NeuroSLAM eq. 23); ``weight``
         scales its squared errors in the least-squares map."""
         dx, dy, dz, dyaw = self.relative
         distance = math.hypot(dx, dy)
@@ -499,7 +500,7 @@ class ExperienceMap:
         self._linked.add((source, target))
 
     def _relax(self, passes: int) -> None:
-        """Relax the map after a change: eq. 25's passes, or its least-squares map solved directly."""
+        """Relax the map after a change: NeuroSLAM eq. 25's passes, or its least-squares map solved directly."""
         if self.config.relaxation == "least-squares":
             if not self._settled:
                 self._solve()
@@ -507,9 +508,9 @@ class ExperienceMap:
         self._relax_passes(passes)
 
     def _solve(self) -> None:
-        """The least-squares map of eq. 25's link errors, found by Gauss–Newton on the sparse link graph.
+        """The least-squares map of NeuroSLAM eq. 25's link errors, found by Gauss–Newton on the sparse link graph.
 
-        Eq. 25 moves every experience by a fraction of its links' errors per pass, reducing the sum of
+        NeuroSLAM eq. 25 moves every experience by a fraction of its links' errors per pass, reducing the sum of
         squared link errors (x, y, z in metres, yaw in radians, all weighted 1). Along a loop of n
         experiences it needs of the order of n² passes to spread a loop's error (a 1,500-experience lap
         keeps almost all of it after thousands of passes), so a map relaxed by passes still has the
@@ -591,7 +592,7 @@ class ExperienceMap:
                 return
 
     def _relax_passes(self, passes: int) -> None:
-        """Eq. 25 over all links at once, ``passes`` times.
+        """NeuroSLAM eq. 25 over all links at once, ``passes`` times.
 
         Once a pass moves no experience by more than ``SETTLED`` (m or rad) the map counts as settled and
         further passes are skipped until a loop closure adds an inconsistent link (a link made from the
@@ -599,8 +600,8 @@ class ExperienceMap:
         yaw moves its target, so near where they settle a full pass can raise the total squared link error (by
         up to ~1 % on noisy loops): such a pass is halved until it does not (at most ``PASS_HALVINGS`` times);
         where no part of it helps, the pass is taken with the yaw coupling (the error's gradient, scaled as
-        eq. 25 scales it), which always helps unless the map is at a minimum. So relaxation never increases the
-        error; passes that lower it are the paper's, unchanged.
+        NeuroSLAM eq. 25 scales it), which always helps unless the map is at a minimum. So relaxation never
+        increases the error; passes that lower it are the paper's, unchanged.
         """
         if passes == 0 or self._links.count == 0 or self._settled:
             return
@@ -626,7 +627,7 @@ class ExperienceMap:
             return [(np.bincount(targets, error, n) - np.bincount(sources, error, n)) * scale for error in errors]
 
         def with_coupling(steps, yaw, errors) -> list[np.ndarray]:
-            # eq. 25's steps plus, in the source's yaw, how turning it moves the link's far end: a positively
+            # NeuroSLAM eq. 25's steps plus, in the source's yaw, how turning it moves the link's far end: a positively
             # scaled negative gradient of the total error, so a small enough step always lowers it
             direction = yaw[sources] + heading
             turning = errors[1] * distance * np.cos(direction) - errors[0] * distance * np.sin(direction)

@@ -4,9 +4,10 @@ A ground robot's accelerometer measures the specific force in its body frame (x 
 gravity's reaction, ``g (sin pitch, ·, cos pitch)`` for a nose-up pitch, plus the robot's own
 accelerations. The pitch is ``atan2(f_x, f_z)``, low-passed with a first-order filter (time constant
 ``time_constant``) so that speeding up and braking, which last a second or so and average out, do not
-read as slopes. The climb rate is then the forward speed times the sine of the pitch, as in eq. 32.
+read as slopes. The climb rate is then the forward speed times the sine of the pitch (this project's rule, as
+in the camera's ``transitions`` height; NeuroSLAM eq. 32 takes a gain times the height region's shift instead).
 
-This is not in the NeuroSLAM paper, which measures the pitch from the images (eqs. 31–32); that
+This is not in the NeuroSLAM paper, which measures the pitch from the images (NeuroSLAM eqs. 31–32); that
 measurement carries a bias from forward motion that depends on the scene's depth, and the integrated
 height drifts by metres per hundred metres on most of the testbed's worlds. The camera's default height
 (:mod:`neuroslam.vision.pitch`, level floors joined by ramps) no longer drifts; the IMU also follows

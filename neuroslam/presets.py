@@ -35,15 +35,15 @@ def _paper_grid(global_inhibition: float, view_injection: float) -> GridCellConf
 
 
 def _profile_odometry(**regions: Region) -> VisualOdometryConfig:
-    """The paper's intensity-profile odometry (eqs. 27–30), with the gains measured on the testbed's car park
+    """The paper's intensity-profile odometry (NeuroSLAM eqs. 27–30), with the gains measured on the testbed's car park
     (speed 14.6 m per unit of profile difference, yaw 0.9 of the geometric value), and the paper's height
-    (eqs. 31–32)."""
+    (NeuroSLAM eqs. 31–32)."""
     return VisualOdometryConfig(planar_motion="profile", height_model="profile", speed_scale=14.6, yaw_scale=0.9,
                                 **regions)
 
 
 def _paper_map(correction: float, relaxation_passes: int) -> ExperienceMapConfig:
-    """The paper's experience map: eq. 25's passes, loops closed by eq. 22's code match alone."""
+    """The paper's experience map: NeuroSLAM eq. 25's passes, loops closed by NeuroSLAM eq. 22's code match alone."""
     return ExperienceMapConfig(correction=correction, relaxation_passes=relaxation_passes, relaxation="passes",
                                loop_closure="code")
 

@@ -5,10 +5,10 @@ Per frame, in the paper's order (Algorithm 1):
 1. vision: grey image, visual odometry (or the caller's own self-motion) and the local view cells;
 2. head-direction cells: attractor dynamics and path integration by the yaw and height change;
 3. grid cells: attractor dynamics and path integration by the translation along the decoded yaw;
-4. local view calibration: a familiar view injects the activity it learned (eqs. 10–11) into both
+4. local view calibration: a familiar view injects the activity it learned (NeuroSLAM eqs. 10–11) into both
    networks; a new view learns the current packets;
 5. experience map: the odometry since the current experience, matching, creation, loop closure and
-   relaxation (eqs. 21–25). With ``loop_closure = "confirmed"`` (the ``sim`` default) a loop may close
+   relaxation (NeuroSLAM eqs. 21–25). With ``loop_closure = "confirmed"`` (the ``sim`` default) a loop may close
    only where the last frames' views confirm an old place (:mod:`neuroslam.loop_closure`), and the
    packets are first moved to that place's codes.
 
@@ -196,7 +196,7 @@ class NeuroSLAM:
         self.head_direction.step(yaw_change, climb)
         direction_code = self.head_direction.decode()
         heading = direction_code[0] * self.head_direction.yaw_cell_size
-        # the direction of travel off the odometric heading that the grid network's read-out gives (eq. 5),
+        # the direction of travel off the odometric heading that the grid network's read-out gives (grid-network eq. 5),
         # rad; the network is driven along the heading accumulated from the rotations (as the paper does:
         # the head-direction packet jumps when a view calibrates it, which the network would follow late)
         drift = 0.0
@@ -628,15 +628,15 @@ class NeuroSLAM:
         The younger of the two (the higher component id: the partial map of this session, or the later
         of two loaded maps) moves into the older one's frame, which stays. The correspondence: the robot,
         in its map, is at ``place`` facing its yaw plus the view's ``relative_yaw``. The 4-DoF transform
-        (a rotation about z by the yaw difference, then a translation; eqs. 13–14 with the yaw) maps the
-        moving side of it onto the staying side. Every experience of the moving map is moved by it (eq. 15)
+        (a rotation about z by the yaw difference, then a translation; multisession eqs. 13–14 with the yaw) maps the
+        moving side of it onto the staying side. Every experience of the moving map is moved by it (multisession eq. 15)
         and given the codes its new pose has relative to the correspondence (grid cells: the metric
         offset over the cell sizes, wrapped; head direction: the yaw and height offsets); every view
-        learned in the moving map has its associations moved the same way (eqs. 11–12: the offset to its
+        learned in the moving map has its associations moved the same way (multisession eqs. 11–12: the offset to its
         first experience rotated by the yaw difference, not only translated). When the robot's map moved,
         both packets move to ``place``'s codes (an exact shift); otherwise they stay. Experiences of the
         moving map that duplicate one of the other (same view, within ``confirmation_tolerance``) are
-        fused into it. The loop closure that follows in the same frame links the two maps (eqs. 16–17).
+        fused into it. The loop closure that follows in the same frame links the two maps (multisession eq. 17).
         Returns the decoded codes afterwards.
         """
         themap = self.experience_map
@@ -746,10 +746,10 @@ class NeuroSLAM:
 
     def _relocate(self, place: int, relative_yaw: float, grid_code: np.ndarray, direction_code: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray]:
-        """Move both packets to a confirmed place's codes, unless eq. 22 already matches it there.
+        """Move both packets to a confirmed place's codes, unless NeuroSLAM eq. 22 already matches it there.
 
-        The packets are shifted whole (the same exact shift as path integration, eqs. 6–9), so they keep
-        their resting shape. Returns the decoded codes afterwards.
+        The packets are shifted whole (the same exact shift as path integration, NeuroSLAM eqs. 6–9 and 17–20),
+        so they keep their resting shape. Returns the decoded codes afterwards.
         """
         themap = self.experience_map
         target_grid = themap.grid_codes[place]
@@ -769,7 +769,7 @@ class NeuroSLAM:
         return self.grid_cells.decode(), self.head_direction.decode()
 
     def _learn_view(self, template: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float) -> None:
-        """Eq. 10: a new local view cell associates with the current grid and head-direction packets."""
+        """NeuroSLAM eq. 10: a new local view cell associates with the current grid and head-direction packets."""
         if template >= len(self._view_grid):
             self._view_grid = np.concatenate([self._view_grid, np.zeros_like(self._view_grid)])
             self._view_direction = np.concatenate([self._view_direction, np.zeros_like(self._view_direction)])
@@ -781,7 +781,7 @@ class NeuroSLAM:
         self._view_decay[template] = (1.0, time)
 
     def _recall_view(self, template: int, relative_yaw: float, time: float) -> None:
-        """Eq. 11: a familiar view injects its learned packets.
+        """NeuroSLAM eq. 11: a familiar view injects its learned packets.
 
         The decay rule: every activation adds 1 to the view's decay, which falls back exponentially
         (time constant 10 s); the injected energy is the configured strength divided by (1 + decay), so

@@ -1,15 +1,15 @@
 """The machinery shared by the grid-cell and head-direction networks: a continuous attractor network on
 a torus of any dimension, updated as one circular convolution per frame.
 
-One frame (eqs. 1–9 for the grid cells, 12–20 for the head-direction cells):
+One frame (NeuroSLAM eqs. 1–9 for the grid cells, 12–20 for the head-direction cells):
 
-1. local excitation (eqs. 1–3, 12–14): the activity is convolved with a Gaussian excitatory kernel;
-2. local inhibition (eq. 4, 15): the excited activity minus ``inhibition_scale`` times its convolution
+1. local excitation (NeuroSLAM eqs. 1–3, 12–14): the activity is convolved with a Gaussian excitatory kernel;
+2. local inhibition (NeuroSLAM eqs. 4, 15): the excited activity minus ``inhibition_scale`` times its convolution
    with an inhibitory kernel;
-3. path integration (eqs. 6–9, 17–20): a shift by any displacement, in whole and fractional cells;
-4. global inhibition (eq. 4, 15): ``phi`` subtracted everywhere, negative activity clipped to zero;
-5. local view calibration (eq. 11): learned activity injected at the recalled cells;
-6. normalisation (eq. 5, 16): total activity 1.
+3. path integration (NeuroSLAM eqs. 6–9, 17–20): a shift by any displacement, in whole and fractional cells;
+4. global inhibition (NeuroSLAM eqs. 4, 15): ``phi`` subtracted everywhere, negative activity clipped to zero;
+5. local view calibration (NeuroSLAM eq. 11): learned activity injected at the recalled cells;
+6. normalisation (NeuroSLAM eqs. 5, 16): total activity 1.
 
 Steps 1–3 are linear and circular, so they are applied together as one product of spectra between one
 real FFT and its inverse; the shift is applied in the same product, before the clipping of step 4
@@ -21,7 +21,7 @@ Two measured departures from the paper, both about keeping the packet where the 
 - With both kernels summing to 1, excitation followed by equally strong local inhibition is a band-pass
   filter that favours a periodic pattern: a resting 36³ packet wandered 0.34 cells in 500 frames.
   Scaling the inhibition by 0.7 keeps it still (< 0.001 cells) with a compact packet.
-- The paper's shift blends the two cells around the fractional residue (eqs. 6–9), which blurs the
+- The paper's shift blends the two cells around the fractional residue (NeuroSLAM eqs. 6–9), which blurs the
   packet every frame; with the clipping of step 4 slow packets then stick to the lattice (−0.15 cells
   after 40 frames of 1/7 cell). The default ``fourier`` shift multiplies by the exact phase ramp of the
   displacement (a roll for whole cells, band-limited interpolation for the residue): errors stay below
@@ -48,7 +48,8 @@ def wrapped_distance(a: np.ndarray, b: np.ndarray, size: Sequence[int]) -> np.nd
 
 
 def gaussian_kernel(dimensions: int, width: int, variance: float) -> np.ndarray:
-    """Separable Gaussian weights over a ``width``-cell cube of ``dimensions`` axes, summing to 1 (eqs. 1, 12).
+    """Separable Gaussian weights over a ``width``-cell cube of ``dimensions`` axes, summing to 1
+    (NeuroSLAM eqs. 1, 12).
 
     ``variance`` is the paper's "variance constant" delta, used as the standard deviation in cells.
     """
@@ -61,7 +62,7 @@ def gaussian_kernel(dimensions: int, width: int, variance: float) -> np.ndarray:
 
 
 def _embedded_spectrum(kernel: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-    """Real-FFT spectrum of ``kernel`` centred on cell 0 of a torus of ``shape`` (wrap-around, eq. 3)."""
+    """Real-FFT spectrum of ``kernel`` centred on cell 0 of a torus of ``shape`` (wrap-around, NeuroSLAM eqs. 3, 14)."""
     torus = np.zeros(shape)
     width = kernel.shape[0]
     index = np.ix_(*[(np.arange(width) - width // 2) % n for n in shape])
@@ -111,7 +112,7 @@ class AttractorNetwork:
                                         self.shape)
         inhibition = _embedded_spectrum(gaussian_kernel(self.dimensions, inhibition_width, inhibition_variance),
                                         self.shape)
-        # excitation (eq. 2), then the excited activity inhibits itself locally (eq. 4)
+        # excitation (NeuroSLAM eqs. 2, 13), then the excited activity inhibits itself locally (NeuroSLAM eqs. 4, 15)
         complex_type = np.complex64 if dtype == np.float32 else np.complex128
         self.kernel_spectrum = (excitation * (1.0 - inhibition_scale * inhibition)).astype(complex_type)
         spectrum_shape = self.kernel_spectrum.shape
@@ -160,7 +161,8 @@ class AttractorNetwork:
             self.step()
 
     def shift_factors(self, displacement: Sequence[float]) -> list[np.ndarray]:
-        """Per-axis spectra of a shift by ``displacement`` cells (eqs. 6–9), broadcastable to the spectrum:
+        """Per-axis spectra of a shift by ``displacement`` cells (NeuroSLAM eqs. 6–9, 17–20), broadcastable to
+        the spectrum:
         a roll by the whole cells times the residue's exact phase ramp (``fourier``) or its two-cell
         linear blend (``linear``). Their product is the shift's spectrum."""
         factors = []
@@ -182,16 +184,16 @@ class AttractorNetwork:
             for factor in self.shift_factors(displacement):
                 spectrum *= factor
         activity = fft.irfftn(spectrum, s=self.shape).astype(self.dtype, copy=False)
-        activity -= self.global_inhibition  # eq. 4
+        activity -= self.global_inhibition  # NeuroSLAM eqs. 4, 15
         np.maximum(activity, 0, out=activity)
         total = activity.sum()
         if total <= 0:  # inhibition removed everything: keep the previous packet rather than lose it
             return
-        activity /= total  # eq. 5
+        activity /= total  # NeuroSLAM eqs. 5, 16
         self.activity = activity
 
     def inject(self, cell: Sequence[float], energy: float) -> None:
-        """Add ``energy`` at a fractional ``cell``, split linearly over its 2^d neighbours (eq. 11)."""
+        """Add ``energy`` at a fractional ``cell``, split linearly over its 2^d neighbours (NeuroSLAM eq. 11)."""
         whole = np.floor(np.asarray(cell, dtype=float)).astype(int)
         residue = np.asarray(cell, dtype=float) - whole
         for corner in np.ndindex(*(2,) * self.dimensions):
@@ -202,7 +204,7 @@ class AttractorNetwork:
                 self.activity[index] += energy * weight
 
     def normalise(self) -> None:
-        """Scale the activity to a total of 1 (eq. 5)."""
+        """Scale the activity to a total of 1 (NeuroSLAM eqs. 5, 16)."""
         self.activity /= self.activity.sum()
 
     def peak(self) -> tuple[int, ...]:

@@ -1,4 +1,4 @@
-"""3D grid cells (eqs. 1–11): position (x, y, z) as a packet of activity on a 3-D torus of cells."""
+"""3D grid cells (NeuroSLAM eqs. 1–11): position (x, y, z) as a packet of activity on a 3-D torus of cells."""
 
 from __future__ import annotations
 
@@ -34,15 +34,15 @@ class GridCells:
         return self.network.activity
 
     def step(self, translation: Sequence[float]) -> None:
-        """Attractor dynamics and path integration by a translation (dx, dy, dz) in metres (eqs. 1–9)."""
+        """Attractor dynamics and path integration by a translation (dx, dy, dz) in metres (NeuroSLAM eqs. 1–9)."""
         self.network.step(np.asarray(translation, dtype=float) / self.cell_size)
 
     def inject(self, cell: Sequence[float], energy: float) -> None:
-        """Local view calibration: add ``energy`` at a recalled (fractional) cell (eq. 11)."""
+        """Local view calibration: add ``energy`` at a recalled (fractional) cell (NeuroSLAM eq. 11)."""
         self.network.inject(cell, energy)
 
     def normalise(self) -> None:
-        """Total activity back to 1 (eq. 5), after injections."""
+        """Total activity back to 1 (NeuroSLAM eq. 5), after injections."""
         self.network.normalise()
 
     def decode(self) -> np.ndarray:

@@ -1,18 +1,18 @@
 """Grid-cell path integration with the Burak–Fiete periodic network (grid-network paper, section II).
 
-The network (eqs. 1–4): n × n neurons on a torus, neuron i at x_i with a preferred direction theta_i
+The network (grid-network eqs. 1–4): n × n neurons on a torus, neuron i at x_i with a preferred direction theta_i
 (each 2 × 2 block holds east, north, west and south). Its synaptic activation s follows
 
-    tau ds_i/dt + s_i = f(sum_j W_ij s_j + B_i),   f(x) = max(x, 0)                         (eq. 1)
-    W_ij = W_0(x_i - x_j - l e_theta_j)                                                       (eq. 2)
-    W_0(x) = alpha exp(-gamma |x|²) - exp(-beta |x|²)                                        (eq. 3)
-    B_i = A(x_i) (1 + eta e_theta_i · v),   A = 1 on the periodic sheet                       (eq. 4)
+    tau ds_i/dt + s_i = f(sum_j W_ij s_j + B_i),   f(x) = max(x, 0)                         (grid-network eq. 1)
+    W_ij = W_0(x_i - x_j - l e_theta_j)                                                       (grid-network eq. 2)
+    W_0(x) = alpha exp(-gamma |x|²) - exp(-beta |x|²)                                        (grid-network eq. 3)
+    B_i = A(x_i) (1 + eta e_theta_i · v),   A = 1 on the periodic sheet                       (grid-network eq. 4)
 
-(eq. 2 as Burak and Fiete define it: the outgoing weights of neuron j are shifted along j's own
+(grid-network eq. 2 as Burak and Fiete define it: the outgoing weights of neuron j are shifted along j's own
 direction, which is what makes the pattern flow with the velocity input). ``sum_j W_ij s_j`` is, for each of
 the four directions, a circular convolution of that direction's neurons with W_0 shifted by l along it;
 one frame of it is four real FFTs of the masked activity, one product-sum with the four kernel spectra
-and one inverse FFT, then the Euler step of eq. 1. From a random start at rest the activity settles into a
+and one inverse FFT, then the Euler step of grid-network eq. 1. From a random start at rest the activity settles into a
 triangular lattice (period about 25 neurons with Table II's parameters); a velocity input makes the
 lattice flow along it, 0.36 neurons per step per unit of ``eta |v|``, linearly while that stays below
 about 0.04 (measured: beyond it the lattice deforms and the flow direction errs by several degrees;
@@ -25,11 +25,11 @@ Gauss–Newton on the whole sheet (the earlier frame shifted by an exact Fourier
 matches the later one), which is accurate to about 0.001 neurons where a parabola through the peak errs
 by up to 0.1 (direction errors of 2 degrees at the flows a frame produces).
 
-The metric displacement (eq. 5) takes only the direction of that shift; its length is the distance driven:
+The metric displacement (grid-network eq. 5) takes only the direction of that shift; its length is the distance driven:
 r = distance (dx, dy) / |(dx, dy)|. The lattice flows slightly off its input's direction (up to about a
 degree, depending on the heading against the lattice's axes); the network measures that once, after it
 settles (``calibration_directions`` headings), and the read-out direction is corrected by it. The
-sheet's axes are the world's x and y (eq. 5's minus sign for dy comes from the image row axis of the
+sheet's axes are the world's x and y (grid-network eq. 5's minus sign for dy comes from the image row axis of the
 paper's figures, which this sheet does not have). Heading comes from outside (the rotations accumulated)
 and height from the height rate: the network integrates planar motion only.
 """
@@ -104,7 +104,7 @@ class GridNetwork:
     Example::
 
         network = GridNetwork()
-        dx, dy = network.integrate(0.1, heading=0.3, dt=0.1)   # 10 cm at 0.3 rad: metres, eq. 5
+        dx, dy = network.integrate(0.1, heading=0.3, dt=0.1)   # 10 cm at 0.3 rad: metres, grid-network eq. 5
     """
 
     def __init__(self, config: GridNetworkConfig = GridNetworkConfig()):
@@ -121,7 +121,7 @@ class GridNetwork:
         self.direction_index = (2 * (np.arange(n)[:, None] % 2) + (np.arange(n)[None, :] % 2)).astype(np.int64)
         self._masks = np.stack([(self.direction_index == d) for d in range(4)]).astype(np.float32)
         kernels = []
-        for direction in PREFERRED_DIRECTIONS:  # eqs. 2-3: W_0 centred l cells along the direction
+        for direction in PREFERRED_DIRECTIONS:  # grid-network eqs. 2-3: W_0 centred l cells along the direction
             x = first - config.weight_shift * direction[0]
             y = second - config.weight_shift * direction[1]
             squared = x * x + y * y
@@ -135,8 +135,8 @@ class GridNetwork:
         self.direction_bias = self._calibrate() if config.calibration_directions else np.zeros(0)
 
     def step(self, velocity: np.ndarray, steps: int = 1) -> None:
-        """``steps`` Euler steps of eq. 1 with the velocity input ``v`` of eq. 4 (network units; see
-        ``velocity_scale``)."""
+        """``steps`` Euler steps of grid-network eq. 1 with the velocity input ``v`` of grid-network eq. 4
+        (network units; see ``velocity_scale``)."""
         config = self.config
         drive = 1.0 + config.velocity_gain * (self._preferred @ np.asarray(velocity, dtype=np.float32))
         rate = config.time_step / config.time_constant
@@ -180,7 +180,7 @@ class GridNetwork:
     def integrate(self, distance: float, heading: float, dt: float) -> tuple[float, float]:
         """One frame: drive the network with the robot's velocity (``distance`` m along ``heading`` rad over
         ``dt`` s) for ``steps_per_frame`` steps, read out the lattice's shift (Table I) and return the
-        metric displacement of eq. 5 (dx, dy) in metres: the distance along the shift's direction."""
+        metric displacement of grid-network eq. 5 (dx, dy) in metres: the distance along the shift's direction."""
         if dt <= 0:
             return 0.0, 0.0
         config = self.config
@@ -191,7 +191,8 @@ class GridNetwork:
         if distance == 0:
             return 0.0, 0.0
         shift = cyclic_shift(before, self.activity, config.search_radius)
-        if math.hypot(shift[0], shift[1]) < 1e-9:  # no measurable flow: eq. 5 has no direction; keep the heading
+        if math.hypot(shift[0], shift[1]) < 1e-9:  # no measurable flow: grid-network eq. 5 has no direction;
+            # keep the heading
             return distance * math.cos(heading), distance * math.sin(heading)
         direction = self._corrected(math.atan2(shift[1], shift[0]))
         return distance * math.cos(direction), distance * math.sin(direction)

@@ -1,4 +1,4 @@
-"""Multilayered head-direction cells (eqs. 12–20): yaw × height as a packet on a 2-D torus of cells."""
+"""Multilayered head-direction cells (NeuroSLAM eqs. 12–20): yaw × height as a packet on a 2-D torus of cells."""
 
 from __future__ import annotations
 
@@ -30,15 +30,16 @@ class HeadDirectionCells:
         return self.network.activity
 
     def step(self, yaw_change: float, height_change: float) -> None:
-        """Attractor dynamics and path integration by a yaw change (rad) and height change (m) (eqs. 12–20)."""
+        """Attractor dynamics and path integration by a yaw change (rad) and height change (m)
+        (NeuroSLAM eqs. 12–20)."""
         self.network.step((yaw_change / self.yaw_cell_size, height_change / self.config.height_cell_size))
 
     def inject(self, cell: np.ndarray, energy: float) -> None:
-        """Local view calibration: add ``energy`` at a recalled (fractional) cell (yaw, height) (eq. 11)."""
+        """Local view calibration: add ``energy`` at a recalled (fractional) cell (yaw, height) (NeuroSLAM eq. 11)."""
         self.network.inject(cell, energy)
 
     def normalise(self) -> None:
-        """Total activity back to 1 (eq. 16), after injections."""
+        """Total activity back to 1 (NeuroSLAM eq. 16), after injections."""
         self.network.normalise()
 
     def decode(self) -> np.ndarray:

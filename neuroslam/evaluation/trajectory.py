@@ -1,5 +1,5 @@
 """Trajectory alignment (Umeyama 1991) and absolute trajectory error, as in the SLAM-evaluation standard
-(evo, Zhang and Scaramuzza 2018; the paper's eq. 33 is the RMSE over positions)."""
+(evo, Zhang and Scaramuzza 2018; the paper's NeuroSLAM eq. 33 is the RMSE over positions)."""
 
 from __future__ import annotations
 

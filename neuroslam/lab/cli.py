@@ -197,9 +197,9 @@ def _parser() -> argparse.ArgumentParser:
     calibrate = commands.add_parser(
         "calibrate", help="fit the visual-odometry gains to ground truth and write a config file",
         description="Drive a calibration route, compare the visual odometry's raw measurements with ground truth, "
-        "fit its gains (speed and yaw scale by least squares; the height pipeline of eqs. 31-32 by the least height "
-        "error, written only with height_model = profile: the default transitions height has no gains) and "
-        "write them as a TOML config file usable with --config.")
+        "fit its gains (speed and yaw scale by least squares; the height pipeline of NeuroSLAM eqs. 31-32 by the "
+        "least height error, written only with height_model = profile: the default transitions height has no "
+        "gains) and write them as a TOML config file usable with --config.")
     calibrate.add_argument("world", help="built-in world name, gen:SEED, or an MJCF file")
     _drive_options(calibrate, laps=1, camera=False)
     _slam_options(calibrate)
@@ -487,7 +487,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         raise InvalidParameterError("--out", str(args.out), "is a folder; name a file" if args.out.is_dir()
                                     else "exists; add --overwrite to replace it, or name another file")
     base = _slam_from(args)[0].config
-    # the raw row-shift pitch changes are eqs. 31-32's ("profile"), whose gains are fitted; the "transitions"
+    # the raw row-shift pitch changes are NeuroSLAM eqs. 31-32's ("profile"), whose gains are fitted; the "transitions"
     # height (eqs. R1-R3) has none
     neutral = dataclasses.replace(base.odometry, speed_scale=1.0, yaw_scale=1.0, climb_scale=1.0,
                                   pitch_flow_bias=0.0, pitch_leak=0.0, max_speed=1e6, max_yaw_rate=1e6,
@@ -527,7 +527,8 @@ def _calibrate(args: argparse.Namespace) -> int:
         ("frames", str(len(table))),
         ("speed", f"scale {fit.speed_scale:.3f}, correlation {fit.speed_correlation:.2f}"),
         ("yaw", f"scale {fit.yaw_scale:.3f}, correlation {fit.yaw_correlation:.2f}"),
-        ("height", ("" if profile_height else "not written (height_model = transitions has no gains); eqs. 31-32: ")
+        ("height", ("" if profile_height
+                    else "not written (height_model = transitions has no gains); NeuroSLAM eqs. 31-32: ")
          + f"climb gain {fit.climb_scale:.2f}, pitch bias {fit.pitch_flow_bias:.4f} rad/m, "
          f"leak {fit.pitch_leak:.2f}/s, height error {fit.height_rmse:.2f} m"),
         ("config", f"{args.out} (use with --config)"),

@@ -1,7 +1,7 @@
 """Fitting the visual-odometry gains to ground truth (``neuroslam calibrate``).
 
 The visual odometry's raw measurements (profile difference, column shift, row shift) become speed, yaw
-rate and climb rate through gains that depend on the camera and the scenery (eqs. 29, 30, 32). Given a
+rate and climb rate through gains that depend on the camera and the scenery (NeuroSLAM eqs. 29, 30, 32). Given a
 calibration drive with ground truth, the speed gain makes the total distance right, the yaw gain is a
 least-squares fit through the origin, and the height pipeline (pitch bias per metre, leak, climb gain)
 is the grid point with the least height error when integrated over the whole drive, as the SLAM does.
@@ -23,7 +23,7 @@ class OdometryCalibration:
     """Fitted gains and how well they fit.
 
     Attributes:
-        speed_scale: metres per frame per unit profile difference (eq. 30's mu).
+        speed_scale: metres per frame per unit profile difference (NeuroSLAM eq. 30's mu).
         yaw_scale: true over geometric yaw rate.
         climb_scale, pitch_flow_bias, pitch_leak: the height pipeline.
         speed_correlation, yaw_correlation: of the fitted against the true per-frame values.
@@ -71,7 +71,7 @@ def fit_odometry_gains(
 
     Args:
         dt: seconds between each frame and the previous one (N,).
-        raw_difference: eq. 30's profile difference per frame (speed_scale 1).
+        raw_difference: NeuroSLAM eq. 30's profile difference per frame (speed_scale 1).
         raw_yaw_rate: geometric yaw rate per frame, rad/s (yaw_scale 1).
         raw_pitch_change: pitch change per frame from the row shift, rad (no bias, no leak).
         true_speed: m/s. true_yaw_rate: rad/s. true_height: m, at each frame (N,).

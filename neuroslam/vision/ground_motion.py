@@ -1,7 +1,7 @@
 """Planar self-motion from the floor: direct alignment of consecutive images under a ground-plane model.
 
-This is not in the NeuroSLAM paper (whose speed, eq. 30, is a profile difference times a scene-dependent
-gain); it replaces eqs. 27–30 when ``odometry.planar_motion = "ground"``. A camera ``h`` metres above the
+This is not in the NeuroSLAM paper (whose speed, NeuroSLAM eq. 30, is a profile difference times a scene-dependent
+gain); it replaces NeuroSLAM eqs. 27–30 when ``odometry.planar_motion = "ground"``. A camera ``h`` metres above the
 floor, looking level, ``a`` metres ahead of the robot's turning axis, sees the floor point at
 robot-frame ground coordinates ``q = (x, y)`` (x ahead of the axis, y to the left) at pixel
 

@@ -1,6 +1,6 @@
-"""Local view cells: one cell per stored visual template (Fig. 9, and eqs. 10–11 for what they recall).
+"""Local view cells: one cell per stored visual template (Fig. 9, and NeuroSLAM eqs. 10–11 for what they recall).
 
-A view is a patch-normalised thumbnail (eq. 26). It is compared with every stored template by the mean
+A view is a patch-normalised thumbnail (NeuroSLAM eq. 26). It is compared with every stored template by the mean
 absolute difference over the overlap of the two after a 2-D shift (rows ±``max_row_shift``, columns
 ±``max_column_shift``; in panoramic mode the columns shift circularly over the whole strip). The shift
 for each template is the one with the least squared difference (all shifts of all candidates in two
@@ -130,7 +130,7 @@ class LocalViewCells:
         return first
 
     def thumbnail(self, grey_image: np.ndarray) -> np.ndarray:
-        """The patch-normalised thumbnail of a grey image (crop, area resize, eq. 26)."""
+        """The patch-normalised thumbnail of a grey image (crop, area resize, NeuroSLAM eq. 26)."""
         region = crop(grey_image, self.config.region)
         small = resize(region, self.config.thumbnail)
         return patch_normalise(small, self.config.patch_size, wrap_columns=self.panoramic)

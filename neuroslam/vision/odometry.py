@@ -1,12 +1,12 @@
-"""Visual odometry from intensity profiles ("aidvo", eqs. 27–32), all four degrees of freedom from images.
+"""Visual odometry from intensity profiles ("aidvo", NeuroSLAM eqs. 27–32), all four degrees of freedom from images.
 
-- Yaw (eqs. 27–29): the column profile of the rotation region, resampled to columns equally spaced in
+- Yaw (NeuroSLAM eqs. 27–29): the column profile of the rotation region, resampled to columns equally spaced in
   angle (for a pinhole camera the pixel columns are not: a rotation moves the edges less than the
   centre; measured on the testbed, turns read 8 % short without it and 5 % with it), is matched against
   the previous frame's by the shift that minimises the mean absolute difference over the overlap; the
   shift, refined by a parabola through the three best differences, times the angle per column is the
   yaw change. Content moving right means the camera turned left: positive yaw.
-- Speed (eq. 30): the mean absolute difference of the translation region's profiles at that shift,
+- Speed (NeuroSLAM eq. 30): the mean absolute difference of the translation region's profiles at that shift,
   times ``speed_scale``, clipped to ``max_speed``.
 - With ``planar_motion = "ground"`` (the default of the ``sim`` preset) the speed and the yaw come instead
   from aligning the floor below the horizon under a ground-plane model (:mod:`.ground_motion`, eqs.
@@ -17,9 +17,9 @@
   plane, so the yaw is the rotation alignment's and the speed the last one measured off a transition (it
   does not change over a ramp's foot; frames may be unevenly spaced); elsewhere both come from the floor
   (eqs. G1–G3).
-- Height with ``height_model = "profile"`` (eqs. 31–32, measured rather than switched from ground
+- Height with ``height_model = "profile"`` (NeuroSLAM eqs. 31–32, measured rather than switched from ground
   truth): the height region, offset by the yaw shift, is matched against the previous frame's by the
-  vertical shift minimising the mean absolute difference (eq. 31 over the whole region rather than its
+  vertical shift minimising the mean absolute difference (NeuroSLAM eq. 31 over the whole region rather than its
   row profile, which measured too noisy in the testbed: correlation with the true pitch change 0.50
   against 0.84). The shift times the angle per row is the change of pitch (content moving down: nose
   up), less ``pitch_flow_bias`` per metre driven (forward motion itself moves the floor down the image).
@@ -59,7 +59,7 @@ _FIRM_FLOOR = 1.0
 # the synthetic scenes of tests/scenes.py 0.01–0.26, the building's ceilings over its corridors 0.16–0.42,
 # urban's facades and sky 0.43–0.69 (10th–90th percentiles)
 _SCALE_MISFIT = 0.2
-# eq. 27's best shift stands out where the profiles' mean absolute difference over the searched shifts (their
+# NeuroSLAM eq. 28's best shift stands out where the profiles' mean absolute difference over the searched shifts (their
 # median) is at least this many times the difference at the best one. Sensor noise alone, alike at every
 # shift, gives 1.13 (median) and at most 1.31 (measured over 1,500 pairs of uniform images with 1–20 grey
 # levels of noise); 1.5 stays clear of it. Near walls, whose parallax no single shift fits, give 1.8–1.9 while
@@ -93,8 +93,8 @@ class Observed:
     - ``image``: the whole image: its rotation for the yaw and pitch (eqs. R1–R2: walls, ceiling, anything
       far or near); for the distance, the expansion of the image above its centre in the scale the floor
       last gave it (eq. S1);
-    - ``profile`` (yaw): the shift of the whole image's column profile (eqs. 27–29, the paper's own yaw), where
-      the image's alignment (eq. R2) has too little information to see the yaw but the profile's best shift
+    - ``profile`` (yaw): the shift of the whole image's column profile (NeuroSLAM eqs. 27–29, the paper's own
+      yaw), where the image's alignment (eq. R2) has too little information to see the yaw but the profile's best shift
       stands out from the others (:func:`profile_turn`): a blank floor under an open sky, whose only
       structure is a thin band of distant objects along the horizon;
     - ``held``: nothing observed it; the last observed speed, held for at most ``odometry.blind_hold``
@@ -144,7 +144,7 @@ def best_shift(previous: np.ndarray, current: np.ndarray, max_shift: int, *, cir
                ) -> tuple[float, float]:
     """The shift of ``current`` against ``previous`` (1-D profiles) minimising the mean absolute difference.
 
-    Eq. 27: for a shift s the difference is the mean of |current[n + s] - previous[n]| over the overlap
+    NeuroSLAM eq. 27: for a shift s the difference is the mean of |current[n + s] - previous[n]| over the overlap
     (circularly for panoramic profiles). Returns (shift refined by a parabola, difference at the best
     whole shift).
     """
@@ -155,7 +155,7 @@ def best_shift(previous: np.ndarray, current: np.ndarray, max_shift: int, *, cir
 
 def profile_turn(previous: np.ndarray, current: np.ndarray, max_shift: int, *, circular: bool = False
                  ) -> tuple[float, bool]:
-    """Eq. 27's best shift of ``current`` against ``previous`` (1-D profiles, samples), and whether it
+    """NeuroSLAM eq. 28's best shift of ``current`` against ``previous`` (1-D profiles, samples), and whether it
     stands out: the median of the differences over all searched shifts is at least ``_PROFILE_CONTRAST``
     (1.5) times the difference at the best, and at least ``_PROFILE_FLOOR`` above it. A uniform image's
     profiles differ by sensor noise alone, alike at every shift (the ratio 1.13, at most 1.31); a thin band
@@ -170,7 +170,7 @@ def profile_turn(previous: np.ndarray, current: np.ndarray, max_shift: int, *, c
 
 def _differences(previous: np.ndarray, current: np.ndarray, max_shift: int, circular: bool
                  ) -> tuple[np.ndarray, np.ndarray]:
-    """Eq. 27 at every shift: (shifts, mean absolute differences over each shift's overlap)."""
+    """NeuroSLAM eq. 27 at every shift: (shifts, mean absolute differences over each shift's overlap)."""
     shifts, positions, valid = _shift_table(len(current), max_shift, circular)
     # all shifts at once: |current[n + s] - previous[n]| where n + s falls inside the profile
     differences = (np.abs(current[positions] - previous[None, :]) * valid).sum(axis=1) / valid.sum(axis=1)
@@ -201,7 +201,7 @@ def _refine(shifts: np.ndarray, differences: np.ndarray, best: int) -> float:
 
 def vertical_shift(previous: np.ndarray, current: np.ndarray, max_shift: int) -> float:
     """Rows ``current`` (2-D) is shifted down against ``previous``, minimising the mean absolute
-    difference over the overlap (eq. 31), refined by a parabola through the three best shifts."""
+    difference over the overlap (NeuroSLAM eq. 31), refined by a parabola through the three best shifts."""
     shifts, positions, valid = _shift_table(previous.shape[0], max_shift, False)
     row_differences = np.abs(current[positions] - previous[None]).mean(axis=2)  # (shifts, rows)
     differences = (row_differences * valid).sum(axis=1) / valid.sum(axis=1)
@@ -235,7 +235,7 @@ class VisualOdometry:
         self.panoramic = panoramic
         self.pitch = 0.0
         self._previous: dict[str, np.ndarray] | None = None
-        # the last two frames' column profiles (eqs. 27–29), for the yaw where nothing else sees it
+        # the last two frames' column profiles (NeuroSLAM eqs. 27–29), for the yaw where nothing else sees it
         self._rotation_profiles: tuple[np.ndarray, np.ndarray] | None = None
         self._equal_angle: dict[int, tuple[np.ndarray, float]] = {}
         self._angle_per_sample = 0.0
@@ -255,7 +255,7 @@ class VisualOdometry:
         self._blind_for = math.inf  # s since the distance was last observed (inf: never)
         self._unobserved = 0  # frames since the distance was last observed (off transitions)
         # the metric scale of the upper image's expansion (m per unit), learnt where the floor sees the
-        # distance: running sums of d e and e² (eq. S1 of the module docstring)
+        # distance: running sums of d e and e² (eq. S1, :meth:`_observed_motion`)
         self._scale_sums = np.zeros(3)
         # the ceiling's height above the camera (m), learnt the same way from its distance in units of that
         # height (eq. S1 with the ceiling's d / H instead of e)
@@ -372,7 +372,7 @@ class VisualOdometry:
 
     @property
     def _max_columns(self) -> int:
-        """The largest shift of the column profile searched by eq. 27, samples."""
+        """The largest shift of the column profile searched by NeuroSLAM eq. 28, samples."""
         return max(1, int(round(self.config.max_column_shift * self.config.profile_width)))
 
     def _profiles(self, grey_image: np.ndarray) -> dict[str, np.ndarray]:
@@ -414,10 +414,10 @@ class VisualOdometry:
         column_shift = 0.0
         self._rotation_profiles = (previous["rotation"], profiles["rotation"])  # for the yaw of last resort
         if ground is None or self.transitions is None:
-            # eqs. 27–29; the profile shift also aligns the height region (eqs. 31–32)
+            # NeuroSLAM eqs. 27–29; the profile shift also aligns the height region (NeuroSLAM eqs. 31–32)
             column_shift, _ = best_shift(previous["rotation"], profiles["rotation"], self._max_columns,
                                          circular=self.panoramic)
-        if ground is not None:  # eqs. G1–G3 instead of eqs. 27–30 for the planar motion
+        if ground is not None:  # eqs. G1–G3 instead of NeuroSLAM eqs. 27–30 for the planar motion
             ground_distance, ground_turn = ground
             distance = float(np.clip(config.speed_scale * ground_distance, -config.max_speed * dt,
                                      config.max_speed * dt))
@@ -426,7 +426,7 @@ class VisualOdometry:
         else:
             yaw_change = config.yaw_scale * column_shift * self._angle_per_sample
             yaw_change = float(np.clip(yaw_change, -config.max_yaw_rate * dt, config.max_yaw_rate * dt))
-            # eq. 30: profile difference at the rotation's shift
+            # NeuroSLAM eq. 30: profile difference at the rotation's shift
             whole = int(round(column_shift))
             a, b = previous["translation"], profiles["translation"]
             if self.panoramic:
@@ -439,7 +439,7 @@ class VisualOdometry:
         if self.transitions is not None:
             return self._height_from_transitions(finest_before, distance, yaw_change, dt)
 
-        # eqs. 31–32: the region over the columns both frames share after the yaw shift
+        # NeuroSLAM eqs. 31–32: the region over the columns both frames share after the yaw shift
         old, new = previous["height"], profiles["height"]
         columns = old.shape[1]
         half = int(round(column_shift * columns / width))
@@ -522,7 +522,7 @@ class VisualOdometry:
           standing close take part in it with a bias, see :mod:`.ground_motion`) and the whole image's yaw
           (eq. R2) agrees with it within ``floor_yaw_tolerance`` (else the floor's solution, distance and yaw,
           is a wrong minimum and is not used); else the whole image's (eq. R2: walls, ceiling) where it sees
-          the yaw; else the shift of the whole image's column profile (eqs. 27–29) where one shift stands out
+          the yaw; else the shift of the whole image's column profile (NeuroSLAM eqs. 27–29) where one shift stands out
           (:func:`profile_turn`: eq. R2 weighs the information per pixel, and a thin band of distant structure
           along an open horizon has too little of it, yet fits one shift only); else none.
         - Distance, in this order: the floor's where it sees it (with ``floor_half_width``, eq. G5's lane beside
@@ -558,7 +558,7 @@ class VisualOdometry:
             if information / max(alignment.pixels, 1) < config.min_image_information:
                 quadrant_yaw = aligned_yaw
             yaw, yaw_source = float(np.clip(quadrant_yaw, -limit_yaw, limit_yaw)), "image"
-        else:  # the column profile's shift (eqs. 27–29), where one shift stands out
+        else:  # the column profile's shift (NeuroSLAM eqs. 27–29), where one shift stands out
             shift, stands_out = profile_turn(*self._rotation_profiles, self._max_columns)
             if stands_out:
                 yaw = float(np.clip(config.yaw_scale * shift * self._angle_per_sample, -limit_yaw, limit_yaw))

@@ -1,8 +1,8 @@
 """Pitch from the camera alone: the rotation between frames by direct alignment, and level floors joined by
 ramps.
 
-Neither is in the NeuroSLAM paper; together they replace eqs. 31–32's height when
-``odometry.height_model = "transitions"`` (the ``sim`` preset's default). Eq. 31's row shift, integrated
+Neither is in the NeuroSLAM paper; together they replace NeuroSLAM eqs. 31–32's height when
+``odometry.height_model = "transitions"`` (the ``sim`` preset's default). NeuroSLAM eq. 31's row shift, integrated
 frame after frame, drifts: forward motion alone moves the image vertically by a scene-dependent amount
 (0.002–0.024 rad per metre on the testbed's worlds), and a turn close to a wall reads as tens of degrees of
 pitch. Both are removed here.
@@ -41,7 +41,7 @@ it, however far, is a top (or foot) read too large, and the pitch is level. Each
 height ran away on generator-2 worlds (docs/generalization.md, fourth step).
 Between transitions the pitch holds, so no drift accumulates on level floors or along a ramp. Measured on
 two laps of each of the six worlds of the testbed (before the SLAM): every one of the 8–16 transitions
-found, none false, the odometry's height within 0.12–0.33 m RMS of the truth (eqs. 31–32: 1–130 m).
+found, none false, the odometry's height within 0.12–0.33 m RMS of the truth (NeuroSLAM eqs. 31–32: 1–130 m).
 
 A run is committed only on consistent evidence: at least one of its frames must see the pitch (the
 image's information on it, eq. R2, above the odometry's ``min_image_information``) and itself change at the

@@ -1,4 +1,4 @@
-"""Image preprocessing: grey conversion, crops, area resizing and patch normalisation (eq. 26)."""
+"""Image preprocessing: grey conversion, crops, area resizing and patch normalisation (NeuroSLAM eq. 26)."""
 
 from __future__ import annotations
 
@@ -53,7 +53,7 @@ def _area_matrix(size: int, out: int) -> np.ndarray:
 
 
 def patch_normalise(image: np.ndarray, patch_size: int, *, wrap_columns: bool = False) -> np.ndarray:
-    """Subtract the local mean and divide by the local standard deviation over a square patch (eq. 26).
+    """Subtract the local mean and divide by the local standard deviation over a square patch (NeuroSLAM eq. 26).
 
     Flat patches (standard deviation below 1e-3 of the grey range) become 0 rather than noise.
     ``wrap_columns`` treats the columns as circular (panoramic images).

@@ -16,7 +16,7 @@ import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, get_args
 
 from .errors import InvalidParameterError
 
@@ -30,9 +30,19 @@ def _number(value: object) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
-RELAXATIONS = ("passes", "least-squares")
-INTEGRATORS = ("odometry", "grid-network")
-LOOP_CLOSURES = ("code", "confirmed")
+# the options: each a Literal type (what a field may hold) and its values
+Relaxation = Literal["passes", "least-squares"]
+Integrator = Literal["odometry", "grid-network"]
+LoopClosure = Literal["code", "confirmed"]
+PlanarMotion = Literal["profile", "ground"]
+HeightModel = Literal["profile", "transitions"]
+Shift = Literal["fourier", "linear"]
+RELAXATIONS: tuple[str, ...] = get_args(Relaxation)
+INTEGRATORS: tuple[str, ...] = get_args(Integrator)
+LOOP_CLOSURES: tuple[str, ...] = get_args(LoopClosure)
+PLANAR_MOTIONS: tuple[str, ...] = get_args(PlanarMotion)
+HEIGHT_MODELS: tuple[str, ...] = get_args(HeightModel)
+SHIFTS: tuple[str, ...] = get_args(Shift)
 
 
 def _require(path: str, value: object, ok: bool, reason: str) -> None:
@@ -71,7 +81,7 @@ def _validate_network(path: str, section: Any) -> None:
     _non_negative(path, global_inhibition=section.global_inhibition, view_injection=section.view_injection)
     _require(f"{path}.inhibition_scale", section.inhibition_scale, _number(section.inhibition_scale)
              and 0 <= section.inhibition_scale < 1, "must be in [0, 1)")
-    _require(f"{path}.shift", section.shift, section.shift in ("fourier", "linear"), "must be 'fourier' or 'linear'")
+    _require(f"{path}.shift", section.shift, section.shift in SHIFTS, "must be 'fourier' or 'linear'")
     _require(f"{path}.readout_radius", section.readout_radius, isinstance(section.readout_radius, int)
              and 1 <= section.readout_radius < size // 2, "must be an integer from 1 to size/2 - 1")
 
@@ -213,7 +223,7 @@ class VisualOdometryConfig:
     profile_width: int = 160
     max_column_shift: float = 0.2
     max_row_shift: float = 0.2
-    planar_motion: str = "ground"
+    planar_motion: PlanarMotion = "ground"
     camera_height: float = 0.5
     camera_forward: float = 0.1
     speed_scale: float = 1.0
@@ -224,7 +234,7 @@ class VisualOdometryConfig:
     pitch_flow_bias: float = 0.012
     climb_scale: float = 0.4
     yaw_scale: float = 1.0
-    height_model: str = "transitions"
+    height_model: HeightModel = "transitions"
     transition_rate: float = math.radians(10.0)
     transition_min: float = math.radians(3.0)
     max_slope: float = math.radians(15.0)
@@ -260,14 +270,14 @@ class VisualOdometryConfig:
         _positive(path, speed_scale=self.speed_scale, max_speed=self.max_speed, max_yaw_rate=self.max_yaw_rate,
                   max_climb_rate=self.max_climb_rate, climb_scale=self.climb_scale, yaw_scale=self.yaw_scale)
         _non_negative(path, pitch_leak=self.pitch_leak)
-        _require(f"{path}.planar_motion", self.planar_motion, self.planar_motion in ("profile", "ground"),
+        _require(f"{path}.planar_motion", self.planar_motion, self.planar_motion in PLANAR_MOTIONS,
                  "must be 'profile' or 'ground'")
         _require(f"{path}.camera_forward", self.camera_forward, _number(self.camera_forward)
                  and abs(self.camera_forward) < 10, "must be a distance in metres")
         _positive(path, camera_height=self.camera_height)
         _require(f"{path}.pitch_flow_bias", self.pitch_flow_bias, _number(self.pitch_flow_bias),
                  "must be a number (rad/m)")
-        _require(f"{path}.height_model", self.height_model, self.height_model in ("profile", "transitions"),
+        _require(f"{path}.height_model", self.height_model, self.height_model in HEIGHT_MODELS,
                  "must be 'profile' or 'transitions'")
         _positive(path, transition_rate=self.transition_rate, transition_min=self.transition_min)
         _require(f"{path}.max_slope", self.max_slope, _number(self.max_slope) and 0 < self.max_slope < math.pi / 2,
@@ -365,7 +375,7 @@ class GridCellConfig:
     global_inhibition: float = 0.0002
     view_injection: float = 0.005
     readout_radius: int = 4
-    shift: str = "fourier"
+    shift: Shift = "fourier"
 
     def __post_init__(self) -> None:
         self.validate()
@@ -399,7 +409,7 @@ class HeadDirectionConfig:
     global_inhibition: float = 0.0002
     view_injection: float = 0.005
     readout_radius: int = 6
-    shift: str = "fourier"
+    shift: Shift = "fourier"
 
     @property
     def yaw_cell_size(self) -> float:
@@ -535,8 +545,8 @@ class ExperienceMapConfig:
     correction: float = 0.5
     relaxation_passes: int = 5
     idle_passes: int = 1
-    relaxation: str = "least-squares"
-    loop_closure: str = "confirmed"
+    relaxation: Relaxation = "least-squares"
+    loop_closure: LoopClosure = "confirmed"
     confirmation_window: int = 20
     confirmation_matches: int = 16
     confirmation_spacing: float = 1.0
@@ -598,7 +608,7 @@ class Config:
     horizontal_fov: float = math.radians(80.0)
     vertical_fov: float = 2 * math.atan(math.tan(math.radians(40.0)) * 0.75)
     panoramic: bool = False
-    integrator: str = "odometry"
+    integrator: Integrator = "odometry"
     odometry: VisualOdometryConfig = field(default_factory=VisualOdometryConfig)
     local_view: LocalViewConfig = field(default_factory=LocalViewConfig)
     grid_cells: GridCellConfig = field(default_factory=GridCellConfig)

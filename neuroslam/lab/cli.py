@@ -21,6 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..config import INTEGRATORS
+from .frames import ODOMETRY_MODES
+
 __all__ = ["main"]
 
 
@@ -84,7 +87,7 @@ def _slam_options(parser: argparse.ArgumentParser, *, sessions: bool = False) ->
     """Options choosing the NeuroSLAM parameters (and, for drive and run, maps of earlier sessions)."""
     parser.add_argument("--preset", help="NeuroSLAM parameter preset (default: sim)")
     parser.add_argument("--config", type=Path, help="TOML or JSON file of NeuroSLAM settings over the preset")
-    parser.add_argument("--integrator", choices=["odometry", "grid-network"],
+    parser.add_argument("--integrator", choices=INTEGRATORS,
                         help="how the displacement that links experiences is integrated: the self-motion directly "
                         "(odometry, the paper) or through the Burak-Fiete grid-cell network (grid-network) "
                         "(default: the preset's, odometry)")
@@ -149,7 +152,7 @@ def _parser() -> argparse.ArgumentParser:
     drive.add_argument("--panoramic", action="store_true", help="stitch four cameras into a 360-degree strip")
     drive.add_argument("--quality", choices=["fast", "high"], default="fast", help="visual profile (default: fast)")
     _slam_options(drive, sessions=True)
-    drive.add_argument("--odometry", choices=["visual", "wheel", "visual-inertial"], default="visual",
+    drive.add_argument("--odometry", choices=ODOMETRY_MODES, default="visual",
                        help="self-motion from the camera (visual odometry), from the wheel encoders with the "
                        "camera's pitch for the height rate, or from the camera with the height rate from the IMU's "
                        "gravity direction (visual-inertial; not the paper's) (default: visual)")
@@ -234,7 +237,7 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--grid", nargs="+", default=[], metavar="FIELD=V1,V2",
                        help="configuration fields to vary over the sim preset, every combination "
                        "(e.g. local_view.threshold=0.05,0.07 experience_map.loop_closure=code,confirmed)")
-    sweep.add_argument("--odometry", choices=["visual", "wheel", "visual-inertial"], default="visual",
+    sweep.add_argument("--odometry", choices=ODOMETRY_MODES, default="visual",
                        help="each drive's self-motion, as for drive (default: visual)")
     sweep.add_argument("--workers", type=_positive_int, help="CPUs of the local Ray instance (default: all)")
     sweep.add_argument("--address", help="address of a running Ray cluster (default: start one locally)")

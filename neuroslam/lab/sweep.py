@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InvalidParameterError
+from .frames import ODOMETRY_MODES
 
 __all__ = ["Drive", "expand_worlds", "parse_grid", "run_sweep"]
 
@@ -125,7 +126,6 @@ def flatten(data: dict, prefix: str = "") -> dict[str, Any]:
     return flat
 
 
-ODOMETRY = ("visual", "wheel", "visual-inertial")
 
 
 def _run_drive(world: str, seed: int, setting: tuple, laps: int, max_frames: int | None, folder: str,
@@ -192,8 +192,8 @@ def run_sweep(worlds: list[str], seeds: int, grid: list[tuple], out: Path, *, la
     Returns (all rows, how many drives failed in this run). Ray starts locally with ``workers`` CPUs unless
     ``address`` names a running cluster.
     """
-    if odometry not in ODOMETRY:
-        raise InvalidParameterError("--odometry", odometry, f"must be one of {', '.join(ODOMETRY)}")
+    if odometry not in ODOMETRY_MODES:
+        raise InvalidParameterError("--odometry", odometry, f"must be one of {', '.join(ODOMETRY_MODES)}")
     try:
         import ray
     except ImportError:

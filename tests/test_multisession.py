@@ -73,8 +73,8 @@ def test_an_unknown_start_merges_once_confirmed_in_four_degrees_of_freedom(tmp_p
     assert wrapped_distance(themap.grid_codes[approach], expected, tuple(size)).max() < 0.05
     # the views learned on the approach moved with their experiences: recalling one injects where it is mapped
     views = themap.template_ids[approach]
-    assert wrapped_distance(slam._view_grid[views], themap.grid_codes[approach], tuple(size)).max() < 0.3
-    assert wrapped_distance(slam._view_direction[views], themap.direction_codes[approach],
+    assert wrapped_distance(slam.view_associations.grid[views], themap.grid_codes[approach], tuple(size)).max() < 0.3
+    assert wrapped_distance(slam.view_associations.direction[views], themap.direction_codes[approach],
                             slam.config.head_direction.size).max() < 0.3
 
 

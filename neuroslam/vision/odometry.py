@@ -32,21 +32,20 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
 from ..config import VisualOdometryConfig
 from ..errors import InvalidInputError, InvalidParameterError
 from .ground_motion import GroundMotion, blurred_with_gradients
+from .motion import BLIND, Observed, SelfMotion
 from .pitch import LevelTransitions, RotationAlignment
 from .preprocessing import crop, resize
+from .profiles import best_shift, profile_turn, vertical_shift
 from .structure import StructureHeading
 
 __all__ = ["BLIND", "Observed", "SelfMotion", "VisualOdometry", "best_shift", "profile_turn", "vertical_shift"]
 
-BLIND = ("held", "none")  # the sources of a degree of freedom that nothing observed
 _NOMINAL_CEILING = 2.0  # m above the camera: where the ceiling's first alignment starts (a 2.5 m room)
 # where the floor sees the distance, the ceiling's height is learnt on every fifth frame: it changes over
 # seconds, not frames (twice a second at 10 Hz: 20 readings within scale_memory), at a fifth of the cost
@@ -59,17 +58,6 @@ _FIRM_FLOOR = 1.0
 # the synthetic scenes of tests/scenes.py 0.01–0.26, the building's ceilings over its corridors 0.16–0.42,
 # urban's facades and sky 0.43–0.69 (10th–90th percentiles)
 _SCALE_MISFIT = 0.2
-# NeuroSLAM eq. 28's best shift stands out where the profiles' mean absolute difference over the searched shifts (their
-# median) is at least this many times the difference at the best one. Sensor noise alone, alike at every
-# shift, gives 1.13 (median) and at most 1.31 (measured over 1,500 pairs of uniform images with 1–20 grey
-# levels of noise); 1.5 stays clear of it. Near walls, whose parallax no single shift fits, give 1.8–1.9 while
-# turning; a thin band of distant structure along an open horizon, 20 (the testbed's frames, medians).
-_PROFILE_CONTRAST = 1.5
-# and by at least this much (intensity in [0, 1]): a tenth of a grey level of structure in the column means.
-# A rendered uniform image's profiles agree exactly, where the ratio above says nothing.
-_PROFILE_FLOOR = 0.1 / 255
-
-
 def _scale(sums: np.ndarray) -> float:
     """Eq. S1's scale from its running sums (Σ d c, Σ c², Σ d²), or 0 where there is none or the readings c
     were not proportional to the distances d: relative misfit sqrt(1 - (Σ d c)² / (Σ c² Σ d²)) above
@@ -79,133 +67,6 @@ def _scale(sums: np.ndarray) -> float:
         return 0.0
     misfit = math.sqrt(max(0.0, 1.0 - products**2 / (readings * distances)))
     return products / readings if misfit <= _SCALE_MISFIT else 0.0
-
-
-@dataclass(frozen=True)
-class Observed:
-    """Where one frame's self-motion came from, per degree of freedom: what the camera saw of it.
-
-    Each of ``distance``, ``yaw`` and ``height`` is one of
-
-    - ``floor``: the floor's motion under the ground-plane model (eqs. G1–G4), where the floor has marks;
-    - ``ceiling`` (distance): the ceiling's motion under the same plane model, in the ceiling height the
-      floor last gave it (eq. S1 of :meth:`VisualOdometry._observed_motion`);
-    - ``image``: the whole image: its rotation for the yaw and pitch (eqs. R1–R2: walls, ceiling, anything
-      far or near); for the distance, the expansion of the image above its centre in the scale the floor
-      last gave it (eq. S1);
-    - ``profile`` (yaw): the shift of the whole image's column profile (NeuroSLAM eqs. 27–29, the paper's own
-      yaw), where the image's alignment (eq. R2) has too little information to see the yaw but the profile's best shift
-      stands out from the others (:func:`profile_turn`): a blank floor under an open sky, whose only
-      structure is a thin band of distant objects along the horizon;
-    - ``held``: nothing observed it; the last observed speed, held for at most ``odometry.blind_hold``
-      seconds (a ramp's foot or top, where the floor is not one plane, holds the speed too; for the height:
-      the pitch holds, as it does between transitions);
-    - ``none``: nothing observed it and nothing is held: zero (a turn rate is never held);
-    - ``external``: given by another sensor (wheels, an IMU).
-    """
-
-    distance: str = "external"
-    yaw: str = "external"
-    height: str = "external"
-
-    @property
-    def blind(self) -> tuple[bool, bool, bool]:
-        """(distance, yaw, height): True where nothing observed that degree of freedom this frame."""
-        return self.distance in BLIND, self.yaw in BLIND, self.height in BLIND
-
-
-@dataclass(frozen=True)
-class SelfMotion:
-    """Self-motion over one frame, in the robot's frame.
-
-    Attributes:
-        forward_speed: m/s along the heading. yaw_rate: rad/s, counter-clockwise positive.
-        climb_rate: m/s, positive up.
-        observed: what the camera observed of each (:class:`Observed`); None where the source does not
-            say (the paper's profile odometry).
-    """
-
-    forward_speed: float
-    yaw_rate: float
-    climb_rate: float = 0.0
-    observed: Observed | None = None
-
-    def validate(self) -> None:
-        """Raise :class:`~neuroslam.errors.InvalidInputError` (a ValueError) naming the first field that is not
-        a finite number."""
-        for name in ("forward_speed", "yaw_rate", "climb_rate"):
-            value = getattr(self, name)
-            if (not isinstance(value, (int, float, np.integer, np.floating)) or isinstance(value, bool)
-                    or not math.isfinite(value)):
-                raise InvalidInputError(f"odometry.{name}", repr(value), "must be a finite number")
-
-
-def best_shift(previous: np.ndarray, current: np.ndarray, max_shift: int, *, circular: bool = False
-               ) -> tuple[float, float]:
-    """The shift of ``current`` against ``previous`` (1-D profiles) minimising the mean absolute difference.
-
-    NeuroSLAM eq. 27: for a shift s the difference is the mean of |current[n + s] - previous[n]| over the overlap
-    (circularly for panoramic profiles). Returns (shift refined by a parabola, difference at the best
-    whole shift).
-    """
-    shifts, differences = _differences(previous, current, max_shift, circular)
-    best = int(np.argmin(differences))
-    return _refine(shifts, differences, best), float(differences[best])
-
-
-def profile_turn(previous: np.ndarray, current: np.ndarray, max_shift: int, *, circular: bool = False
-                 ) -> tuple[float, bool]:
-    """NeuroSLAM eq. 28's best shift of ``current`` against ``previous`` (1-D profiles, samples), and whether it
-    stands out: the median of the differences over all searched shifts is at least ``_PROFILE_CONTRAST``
-    (1.5) times the difference at the best, and at least ``_PROFILE_FLOOR`` above it. A uniform image's
-    profiles differ by sensor noise alone, alike at every shift (the ratio 1.13, at most 1.31); a thin band
-    of distant structure along the horizon makes one shift fit and the others not, however small its share
-    of the image."""
-    shifts, differences = _differences(previous, current, max_shift, circular)
-    best = int(np.argmin(differences))
-    lowest, typical = float(differences[best]), float(np.median(differences))
-    stands_out = typical >= _PROFILE_CONTRAST * lowest and typical - lowest >= _PROFILE_FLOOR
-    return _refine(shifts, differences, best), stands_out
-
-
-def _differences(previous: np.ndarray, current: np.ndarray, max_shift: int, circular: bool
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    """NeuroSLAM eq. 27 at every shift: (shifts, mean absolute differences over each shift's overlap)."""
-    shifts, positions, valid = _shift_table(len(current), max_shift, circular)
-    # all shifts at once: |current[n + s] - previous[n]| where n + s falls inside the profile
-    differences = (np.abs(current[positions] - previous[None, :]) * valid).sum(axis=1) / valid.sum(axis=1)
-    return shifts, differences
-
-
-@lru_cache(maxsize=32)
-def _shift_table(length: int, max_shift: int, circular: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Shifts, the index n + s of every comparison (clipped or wrapped) and whether it is inside."""
-    shifts = np.arange(-max_shift, max_shift + 1)
-    positions = np.arange(length)[None, :] + shifts[:, None]
-    if circular:
-        return shifts, positions % length, np.ones(positions.shape, dtype=np.float32)
-    valid = ((positions >= 0) & (positions < length)).astype(np.float32)
-    return shifts, np.clip(positions, 0, length - 1), valid
-
-
-def _refine(shifts: np.ndarray, differences: np.ndarray, best: int) -> float:
-    """The best shift refined by a parabola through its difference and its neighbours'."""
-    shift = float(shifts[best])
-    if 0 < best < len(shifts) - 1:
-        left, centre, right = (float(v) for v in differences[best - 1: best + 2])
-        curvature = left - 2 * centre + right
-        if curvature > 0:
-            shift += 0.5 * (left - right) / curvature
-    return shift
-
-
-def vertical_shift(previous: np.ndarray, current: np.ndarray, max_shift: int) -> float:
-    """Rows ``current`` (2-D) is shifted down against ``previous``, minimising the mean absolute
-    difference over the overlap (NeuroSLAM eq. 31), refined by a parabola through the three best shifts."""
-    shifts, positions, valid = _shift_table(previous.shape[0], max_shift, False)
-    row_differences = np.abs(current[positions] - previous[None]).mean(axis=2)  # (shifts, rows)
-    differences = (row_differences * valid).sum(axis=1) / valid.sum(axis=1)
-    return _refine(shifts, differences, int(np.argmin(differences)))
 
 
 class VisualOdometry:

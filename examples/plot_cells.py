@@ -5,11 +5,12 @@ What you learn: the state behind each estimate is plain arrays you can look at. 
 the experience map a graph of poses. The figure shows the grid-cell activity summed over height, the
 head-direction activity, and the experience map with its links, after a drive up the car park's ramp.
 
-Run: ``python examples/plot_cells.py`` (400 frames, about 15 s; writes ``cells.png``).
+Run: ``python examples/plot_cells.py`` (400 frames, about 15 s; writes ``runs/examples/cells.png``).
 ``NEUROSLAM_EXAMPLE_FRAMES=N`` drives N frames (the test suite uses it; the code is the same).
 """
 
 import os
+from pathlib import Path
 
 import matplotlib
 
@@ -39,5 +40,7 @@ points = experiences.scatter(*themap.poses[:, :2].T, c=themap.poses[:, 2], s=6, 
 figure.colorbar(points, ax=experiences, label="height (m)")
 experiences.set(title=f"experience map ({themap.size} experiences)", xlabel="x (m)", ylabel="y (m)", aspect="equal")
 figure.tight_layout()
-figure.savefig("cells.png", dpi=80)
-print(f"{frames} frames; pose {estimate.pose.round(2)}; wrote cells.png")
+out = Path("runs") / "examples"
+out.mkdir(parents=True, exist_ok=True)
+figure.savefig(out / "cells.png", dpi=80)
+print(f"{frames} frames; pose {estimate.pose.round(2)}; wrote {out / 'cells.png'}")

@@ -9,7 +9,7 @@ import pytest
 
 from neuroslam import NeuroSLAM
 from neuroslam.lab.cli import main
-from neuroslam.tum import read_tum
+from neuroslam.tum import read_tum, write_tum
 
 
 def run(*args):
@@ -80,6 +80,24 @@ def test_bad_input_gives_one_line_and_exit_code_2(args, text):
     lines = result.stderr.strip().splitlines()
     assert "Traceback" not in result.stderr
     assert len(lines) == 1 and text in lines[0], result.stderr
+
+
+def test_eval_scores_two_trajectories_as_metrics_json_does(tmp_path, capsys):
+    assert main(["drive", "gen:2", "--max-frames", "40", "--out", str(tmp_path / "drive")]) == 0
+    summary = json.loads((tmp_path / "drive" / "metrics.json").read_text())
+    capsys.readouterr()
+    for name in ("slam", "odometry"):
+        assert main(["eval", str(tmp_path / "drive" / "groundtruth.tum"), str(tmp_path / "drive" / f"{name}.tum"),
+                     "--json"]) == 0
+        scores = json.loads(capsys.readouterr().out)
+        assert scores["pairs"] == scores["estimate_poses"] == 40
+        for key in ("ate_rmse_m", "ate_se3_rmse_m"):  # the files hold every float exactly
+            assert scores[key] == pytest.approx(summary[key][name], rel=1e-9), key
+    # a trajectory of other times pairs with nothing: one line, exit code 2
+    times, positions, quaternions = read_tum(tmp_path / "drive" / "slam.tum")
+    write_tum(tmp_path / "late.tum", times + 100.0, positions, quaternions)
+    assert main(["eval", str(tmp_path / "drive" / "groundtruth.tum"), str(tmp_path / "late.tum")]) == 2
+    assert "only 0 poses" in capsys.readouterr().err
 
 
 def test_version():

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from neuroslam.evaluation import ate_rmse, umeyama
+from neuroslam.evaluation import associate, ate_rmse, umeyama
 
 
 def test_umeyama_recovers_a_known_similarity():
@@ -268,3 +268,15 @@ def test_run_metrics_and_tum_files_of_a_drive_match_evo(tmp_path):
                                               estimate.poses_se3[i], estimate.poses_se3[j])[:3, 3])
                   for i, j in pairs]
         assert np.sqrt(np.mean(np.square(errors))) == pytest.approx(summary["rpe_rmse_m"][name], rel=1e-6)
+
+
+def test_associate_pairs_each_estimate_with_the_nearest_truth_time():
+    truth = np.array([0.0, 0.1, 0.2, 0.3, 0.4])
+    estimate = np.array([0.004, 0.096, 0.15, 0.31, 0.305, 0.9])
+    mine, theirs = associate(estimate, truth, max_difference=0.01)
+    # 0.15 is 0.05 s from any truth time, 0.9 from all of them; 0.31 and 0.305 both want 0.3: the nearer wins
+    assert mine.tolist() == [0, 1, 4] and theirs.tolist() == [0, 1, 3]
+    # any order; 0.15 is nearest 0.1 (by float rounding), which 0.096 holds more nearly
+    mine, theirs = associate(estimate[::-1], truth[::-1], max_difference=0.06)
+    assert sorted(zip(estimate[::-1][mine], truth[::-1][theirs], strict=True)) == [(0.004, 0.0), (0.096, 0.1),
+                                                                                   (0.305, 0.3)]

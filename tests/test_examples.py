@@ -2,6 +2,7 @@
 each example documents; the code is the same), prints what it shows, and writes what it says it writes."""
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -25,6 +26,7 @@ def test_the_example_runs(example, tmp_path):
     assert result.stdout.strip(), "an example prints what it shows"
     docstring = example.read_text().split('"""')[1]
     assert "What you learn" in docstring and "Run:" in docstring
-    for written in ("drive_and_score.png", "cells.png"):
-        if f"writes ``{written}``" in docstring or f"wrote {written}" in result.stdout:
-            assert (tmp_path / written).is_file()
+    # what an example writes goes into runs/examples/ (git-ignored), never the working directory itself
+    for written in re.findall(r"writes (?:into )?``(runs/examples/[^`]+)``", " ".join(docstring.split())):
+        assert (tmp_path / written).exists(), written
+    assert {path.name for path in tmp_path.iterdir()} <= {"runs"}, "an example writes only under runs/"

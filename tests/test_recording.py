@@ -92,11 +92,11 @@ def test_help_lists_record():
 
 def test_missing_rerun_gives_a_clear_error(tmp_path, monkeypatch, capsys):
     monkeypatch.setitem(sys.modules, "rerun", None)  # import rerun now raises ImportError
-    with pytest.raises(RecordingUnavailableError, match=re.escape('pip install "neuroslam[record]"')):
+    with pytest.raises(RecordingUnavailableError, match=re.escape('pip install "rerun-sdk>=0.41,<0.42"')):
         RunRecorder(tmp_path / "x.rrd")
     frames = tmp_path / "frames"
     frames.mkdir()
     for index in range(3):
         Image.fromarray(np.full((24, 32, 3), 40 * index, np.uint8)).save(frames / f"{index}.png")
     assert main(["run", str(frames), "--record", "--out", str(tmp_path / "out")]) == 2
-    assert 'pip install "neuroslam[record]"' in capsys.readouterr().err
+    assert 'pip install "rerun-sdk>=0.41,<0.42"' in capsys.readouterr().err

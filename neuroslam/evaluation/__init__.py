@@ -4,6 +4,7 @@
 from .metrics import (
     FLOOR_TOLERANCE,
     align,
+    associate,
     false_loop_closure_mask,
     false_loop_closures,
     level_accuracy,
@@ -11,8 +12,10 @@ from .metrics import (
     observation_shares,
     rpe_rmse,
     run_metrics,
+    trajectory_errors,
 )
 from .trajectory import ate_rmse, umeyama
 
-__all__ = ["FLOOR_TOLERANCE", "align", "ate_rmse", "false_loop_closure_mask", "false_loop_closures",
-           "level_accuracy", "nearest_level", "observation_shares", "rpe_rmse", "run_metrics", "umeyama"]
+__all__ = ["FLOOR_TOLERANCE", "align", "associate", "ate_rmse", "false_loop_closure_mask", "false_loop_closures",
+           "level_accuracy", "nearest_level", "observation_shares", "rpe_rmse", "run_metrics", "trajectory_errors",
+           "umeyama"]

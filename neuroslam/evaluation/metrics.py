@@ -20,8 +20,8 @@ from .trajectory import umeyama
 #: the ramp from its foot.
 FLOOR_TOLERANCE = 0.1
 
-__all__ = ["FLOOR_TOLERANCE", "align", "false_loop_closure_mask", "false_loop_closures", "level_accuracy",
-           "nearest_level", "observation_shares", "rpe_rmse", "run_metrics"]
+__all__ = ["FLOOR_TOLERANCE", "align", "associate", "false_loop_closure_mask", "false_loop_closures",
+           "level_accuracy", "nearest_level", "observation_shares", "rpe_rmse", "run_metrics", "trajectory_errors"]
 
 
 def align(estimate: np.ndarray, truth: np.ndarray, *, with_scale: bool = True) -> np.ndarray:
@@ -52,6 +52,51 @@ def rpe_rmse(estimate: np.ndarray, truth: np.ndarray, *, segment: float = 10.0) 
 
     errors = np.linalg.norm(local(estimate) - local(truth), axis=1)
     return float(math.sqrt(np.mean(errors**2)))
+
+
+def trajectory_errors(estimate: np.ndarray, truth: np.ndarray) -> dict[str, float | None]:
+    """One trajectory's errors against the truth, as ``metrics.json`` reports each: ``ate_rmse_m`` (after a
+    Sim(3) alignment), ``ate_se3_rmse_m`` (SE(3)) and ``rpe_rmse_m`` (10 m segments), in metres; None where
+    the run is too short (fewer than 3 poses, or a path shorter than one segment).
+
+    Args:
+        estimate, truth: (N, 4) poses x, y, z (m), yaw (rad), matched by index.
+    """
+    positions = truth[:, :3]
+    enough = len(truth) >= 3
+    return {"ate_rmse_m": _rmse(align(estimate[:, :3], positions), positions) if enough else None,
+            "ate_se3_rmse_m": (_rmse(align(estimate[:, :3], positions, with_scale=False), positions)
+                               if enough else None),
+            "rpe_rmse_m": rpe_rmse(estimate, truth)}
+
+
+def associate(estimate_times: np.ndarray, truth_times: np.ndarray, max_difference: float = 0.01
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs of an estimate's and the truth's poses taken at the same time (s), as TUM tools pair them: each
+    estimate time with the nearest truth time, kept where they are at most ``max_difference`` apart and
+    that truth time is no other estimate time's nearer partner. Returns (estimate indices, truth indices),
+    increasing."""
+    estimate_times = np.asarray(estimate_times, dtype=float)
+    truth_times = np.asarray(truth_times, dtype=float)
+    if len(truth_times) == 0 or len(estimate_times) == 0:
+        return np.zeros(0, dtype=int), np.zeros(0, dtype=int)
+    order = np.argsort(truth_times)
+    sorted_times = truth_times[order]
+    after = np.clip(np.searchsorted(sorted_times, estimate_times), 1, len(sorted_times) - 1)
+    before = after - 1
+    nearer = np.where(np.abs(sorted_times[before] - estimate_times) <= np.abs(sorted_times[after] - estimate_times),
+                      before, after)
+    if len(sorted_times) == 1:
+        nearer = np.zeros(len(estimate_times), dtype=int)
+    gaps = np.abs(sorted_times[nearer] - estimate_times)
+    estimate_index = np.flatnonzero(gaps <= max_difference)
+    truth_index = order[nearer[estimate_index]]
+    # one estimate per truth time: the nearest
+    ranked = np.lexsort((gaps[estimate_index], truth_index))
+    keep = np.ones(len(ranked), dtype=bool)
+    keep[1:] = truth_index[ranked][1:] != truth_index[ranked][:-1]
+    chosen = np.sort(ranked[keep])
+    return estimate_index[chosen], truth_index[chosen]
 
 
 def nearest_level(heights: np.ndarray, levels: np.ndarray) -> np.ndarray:
@@ -150,10 +195,8 @@ def run_metrics(
     if online_estimate is not None:
         scored.append(("slam_online", online_estimate))
     for name, poses in scored:
-        result["ate_rmse_m"][name] = _rmse(align(poses[:, :3], positions), positions) if enough else None
-        result["ate_se3_rmse_m"][name] = (_rmse(align(poses[:, :3], positions, with_scale=False), positions)
-                                          if enough else None)
-        result["rpe_rmse_m"][name] = rpe_rmse(poses, truth)
+        for key, value in trajectory_errors(poses, truth).items():
+            result[key][name] = value
     experience_truth = np.asarray(experience_truth, dtype=float).reshape(-1, 3)
     known = np.all(np.isfinite(experience_truth), axis=1)
     made, mapped = experience_truth[known], np.asarray(experience_positions, dtype=float)[known]

@@ -7,6 +7,7 @@ Commands:
     calibrate  fit the visual-odometry gains to ground truth and write a config file
     worlds  list the built-in worlds with their levels and routes
     compare-maps  the RMSE between two experience maps after ICP registration
+    eval    score a trajectory against ground truth (two TUM files), as metrics.json scores a run
     sweep   many drives (worlds x seeds x parameter settings) as Ray tasks
 """
 
@@ -106,7 +107,7 @@ def _record_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--record", action="store_true",
                         help="also write run.rrd into the output folder, a rerun recording of the run (camera, "
                         "trajectories, experience map, cell activity, ids and error over time); open it with "
-                        "'rerun run.rrd'; needs: pip install \"neuroslam[record]\"")
+                        "'rerun run.rrd'")
 
 
 def _recorder(args: argparse.Namespace, out: Path, name: str):
@@ -150,7 +151,9 @@ def _parser() -> argparse.ArgumentParser:
     _drive_options(drive, laps=2, camera=True)
     drive.add_argument("--camera-rate", type=_positive_float, default=10.0, help="frames per second (default: 10)")
     drive.add_argument("--panoramic", action="store_true", help="stitch four cameras into a 360-degree strip")
-    drive.add_argument("--quality", choices=["fast", "high"], default="fast", help="visual profile (default: fast)")
+    drive.add_argument("--quality", choices=["fast", "high"], default="fast",
+                       help="visual profile (default: fast); high renders shadows and reflections at about 0.2 s a "
+                       "frame on a CPU (at 320x240; fast: 3-4 ms), so two laps take 20 minutes or more")
     _slam_options(drive, sessions=True)
     drive.add_argument("--odometry", choices=ODOMETRY_MODES, default="visual",
                        help="self-motion from the camera (visual odometry), from the wheel encoders with the "
@@ -208,6 +211,17 @@ def _parser() -> argparse.ArgumentParser:
     _slam_options(calibrate)
     calibrate.add_argument("--out", type=Path, required=True, help="TOML file to write")
     calibrate.add_argument("--overwrite", action="store_true", help="replace the file --out names")
+
+    evaluate = commands.add_parser(
+        "eval", help="score a trajectory against ground truth (two TUM files), as metrics.json does",
+        description="Pair the estimate's poses with the ground truth's by time (each with the nearest truth time "
+        "within --max-difference) and print the errors metrics.json reports for a run: ATE after a Sim(3) and "
+        "after an SE(3) alignment, and the relative error over 10 m of true travel.")
+    evaluate.add_argument("groundtruth", type=Path, help="ground-truth TUM file (t x y z qx qy qz qw)")
+    evaluate.add_argument("estimate", type=Path, help="estimated trajectory, TUM file")
+    evaluate.add_argument("--max-difference", type=_positive_float, default=0.01, metavar="SECONDS",
+                          help="largest time difference of a pair (default: 0.01)")
+    evaluate.add_argument("--json", action="store_true", help="print the numbers as JSON")
 
     compare = commands.add_parser(
         "compare-maps", help="the RMSE between two experience maps after 4-DoF ICP registration",
@@ -566,6 +580,31 @@ def _map_positions(path: Path) -> np.ndarray:
     return NeuroSLAM.load(path).experience_map.poses[:, :3].copy()
 
 
+def _evaluate(args: argparse.Namespace) -> int:
+    """Score an estimated trajectory against ground truth (``neuroslam eval``)."""
+    from ..datasets import DatasetError, read_groundtruth
+    from ..evaluation import associate, trajectory_errors
+
+    truth, estimate = read_groundtruth(args.groundtruth), read_groundtruth(args.estimate)
+    for name, trajectory in (("groundtruth", truth), ("estimate", estimate)):
+        if trajectory.times is None:
+            raise DatasetError(f"{name} {str(getattr(args, name))!r}: needs times: a TUM file (t x y z qx qy qz qw)")
+    mine, theirs = associate(estimate.times, truth.times, args.max_difference)
+    if len(mine) < 3:
+        raise DatasetError(f"only {len(mine)} poses of {str(args.estimate)!r} lie within {args.max_difference} s "
+                           f"of a ground-truth pose; at least 3 are needed")
+    scores = {"pairs": int(len(mine)), "estimate_poses": len(estimate.times),
+              **trajectory_errors(estimate.poses[mine], truth.poses[theirs])}
+    if args.json:
+        print(json.dumps(scores, indent=2))
+        return 0
+    _print_rows([("pairs", f"{scores['pairs']} of {scores['estimate_poses']} estimated poses "
+                           f"(within {args.max_difference} s of the truth)"),
+                 ("ATE (Sim(3))", _metres(scores["ate_rmse_m"])), ("ATE (SE(3))", _metres(scores["ate_se3_rmse_m"])),
+                 ("RPE (10 m)", _metres(scores["rpe_rmse_m"]))])
+    return 0
+
+
 def _compare_maps(args: argparse.Namespace) -> int:
     """The RMSE between two experience maps after ICP (:mod:`neuroslam.evaluation.registration`)."""
     from ..errors import InvalidInputError
@@ -672,7 +711,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``neuroslam`` console script; returns the exit code."""
     args = _parser().parse_args(argv)
     handlers = {"drive": _drive, "run": _run, "record": _record, "calibrate": _calibrate, "worlds": _worlds,
-                "compare-maps": _compare_maps, "sweep": _sweep, "nav": _nav}
+                "compare-maps": _compare_maps, "eval": _evaluate, "sweep": _sweep, "nav": _nav}
     try:
         return handlers[args.command](args)
     except KeyboardInterrupt:

@@ -21,8 +21,8 @@ image is JPEG-compressed, the per-frame images, poses and scalars are buffered a
 things (the cell activity and the experience graph) are logged, every ``every`` frames, on loop closures and at
 :meth:`close`.
 
-rerun-sdk is an optional dependency (``pip install "neuroslam[record]"``), imported only when a recorder
-is made.
+rerun-sdk (0.41) is a dependency of neuroslam, imported only when a recorder is made; an environment
+without it gets a clear error saying how to install it.
 """
 
 from __future__ import annotations
@@ -62,11 +62,11 @@ def _rerun():
         import rerun.blueprint
     except ImportError as error:
         raise RecordingUnavailableError(
-            f'recording needs rerun-sdk 0.41 ({error}); install it with: pip install "neuroslam[record]"') from None
+            f'recording needs rerun-sdk 0.41 ({error}); install it with: pip install "rerun-sdk>=0.41,<0.42"') from None
     version = tuple(int(part) for part in rerun.__version__.split(".")[:2] if part.isdigit())
     if version < (0, 41):
         raise RecordingUnavailableError(f'recording needs rerun-sdk 0.41, found {rerun.__version__}; install it '
-                                        f'with: pip install "neuroslam[record]"')
+                                        f'with: pip install "rerun-sdk>=0.41,<0.42"')
     return rerun
 
 

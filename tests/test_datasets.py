@@ -148,3 +148,31 @@ def test_a_bad_dataset_description_is_named(tmp_path, content, text):
     with pytest.raises(DatasetError, match=text):
         read_description(tmp_path)
     assert read_description(tmp_path / "elsewhere") == DatasetDescription()  # none: an empty description
+
+
+def test_run_says_which_camera_it_assumes_and_takes_yours(tmp_path, capsys):
+    """`run` on your own frames: without camera options it says it assumes the testbed's camera; with them the
+    SLAM uses yours (the vertical field of view from the frames' aspect ratio, square pixels)."""
+    import math
+
+    from PIL import Image
+
+    from neuroslam import NeuroSLAM
+
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    rng = np.random.default_rng(0)
+    for index in range(3):
+        Image.fromarray(rng.integers(0, 255, (90, 160, 3), dtype=np.uint8)).save(frames / f"{index}.png")
+    assert main(["run", str(frames), "--out", str(tmp_path / "assumed")]) == 0
+    captured = capsys.readouterr()
+    assert "camera: assuming the testbed's: 0.50 m above the floor" in captured.err
+    assert main(["run", str(frames), "--camera-height", "1.2", "--camera-forward", "0", "--fov", "90",
+                 "--out", str(tmp_path / "mine")]) == 0
+    assert "assuming" not in capsys.readouterr().err
+    config = NeuroSLAM.load(tmp_path / "mine" / "map.npz").config
+    assert config.odometry.camera_height == 1.2 and config.odometry.camera_forward == 0.0
+    assert config.horizontal_fov == pytest.approx(math.pi / 2)
+    assert config.vertical_fov == pytest.approx(2 * math.atan(90 / 160))  # tan(45°) × 90 / 160
+    assert main(["run", str(frames), "--fov", "400", "--out", str(tmp_path / "bad")]) == 2
+    assert "--fov=[400.0]" in capsys.readouterr().err

@@ -180,6 +180,13 @@ def _parser() -> argparse.ArgumentParser:
                      help="frames per second when the ground truth gives no times (default: 10)")
     run.add_argument("--max-frames", type=_positive_int, help="use only the first N frames")
     _slam_options(run, sessions=True)
+    run.add_argument("--camera-height", type=_positive_float, metavar="METRES",
+                     help="the camera's height above the floor (default: the testbed's, 0.5)")
+    run.add_argument("--camera-forward", type=float, metavar="METRES",
+                     help="the camera's distance ahead of the robot's turning axis (default: the testbed's, 0.1)")
+    run.add_argument("--fov", type=_positive_float, nargs="+", metavar="DEGREES",
+                     help="the camera's horizontal field of view, and optionally its vertical one (default: the "
+                     "testbed's 80; the vertical from the frames' aspect ratio for square pixels)")
     run.add_argument("--odometry", choices=["visual", "wheel"], default="visual",
                      help="self-motion from the camera (visual odometry), or from the wheel odometry the folder "
                      "holds (wheel_odometry.tum, as neuroslam record writes it) with the camera's pitch for the "
@@ -382,8 +389,41 @@ def _print_rows(rows: list[tuple[str, str]]) -> None:
         print(f"{name:<{width}}  {value}")
 
 
-def _slam_from(args: argparse.Namespace):
-    """The NeuroSLAM the options ask for: a preset and config file, or the maps of earlier sessions.
+def _camera_summary(config, image_size: tuple[int, int]) -> str:
+    """The camera a configuration assumes, in words."""
+    return (f"{config.odometry.camera_height:.2f} m above the floor, {config.odometry.camera_forward:.2f} m ahead of "
+            f"the turning axis, {math.degrees(config.horizontal_fov):.0f} x {math.degrees(config.vertical_fov):.0f} "
+            f"degree field of view, {image_size[0]}x{image_size[1]} pixels")
+
+
+def _camera_config(config, args: argparse.Namespace, image_size: tuple[int, int]):
+    """``config`` with the camera the options describe (``--camera-height``, ``--camera-forward``, ``--fov``)."""
+    import dataclasses
+
+    from ..errors import InvalidParameterError
+
+    odometry = config.odometry
+    if args.camera_height is not None:
+        odometry = dataclasses.replace(odometry, camera_height=args.camera_height)
+    if args.camera_forward is not None:
+        odometry = dataclasses.replace(odometry, camera_forward=args.camera_forward)
+    changes = {"odometry": odometry}
+    if args.fov:
+        if len(args.fov) > 2 or args.fov[0] > 360 or (len(args.fov) == 2 and args.fov[1] >= 180):
+            raise InvalidParameterError("--fov", args.fov, "must be a horizontal field of view of at most 360 "
+                                        "degrees and optionally a vertical one under 180")
+        horizontal = math.radians(args.fov[0])
+        width, height = image_size
+        vertical = (math.radians(args.fov[1]) if len(args.fov) == 2
+                    else 2 * math.atan(math.tan(horizontal / 2) * height / width) if horizontal < math.pi
+                    else config.vertical_fov)
+        changes.update(horizontal_fov=horizontal, vertical_fov=vertical)
+    return config.replace(**changes)
+
+
+def _slam_from(args: argparse.Namespace, camera_for: tuple[int, int] | None = None):
+    """The NeuroSLAM the options ask for: a preset and config file, or the maps of earlier sessions; with
+    ``camera_for`` (the frames' width and height, pixels) the camera options of ``run`` apply.
 
     Returns (slam, book): the :class:`~neuroslam.lab.runner.ExperienceTruth` of every loaded experience."""
     from .. import presets
@@ -399,11 +439,15 @@ def _slam_from(args: argparse.Namespace):
             config = load_config(args.config, base=config)
         if args.integrator is not None:
             config = config.replace(integrator=args.integrator)
+        if camera_for is not None:
+            config = _camera_config(config, args, camera_for)
         slam = NeuroSLAM(config)
         return slam, ExperienceTruth(slam)
-    if args.preset is not None or args.config is not None or args.integrator is not None:
+    camera = camera_for is not None and (args.camera_height is not None or args.camera_forward is not None
+                                         or args.fov)
+    if args.preset is not None or args.config is not None or args.integrator is not None or camera:
         raise InvalidParameterError("--load-map", str(maps[0]), "keeps the configuration its map was built with; "
-                                    "leave out --preset, --config and --integrator")
+                                    "leave out --preset, --config, --integrator and the camera options")
     return load_sessions(maps)
 
 
@@ -420,7 +464,11 @@ def _run(args: argparse.Namespace) -> int:
             raise InvalidParameterError("--odometry", args.odometry, f"needs {wheel_odometry}, which is missing")
     stream = FolderStream(args.frames, groundtruth=args.groundtruth, wheel_odometry=wheel_odometry,
                           levels=args.levels, rate=args.rate, max_frames=args.max_frames)
-    slam, book = _slam_from(args)
+    slam, book = _slam_from(args, camera_for=stream.image_size)
+    camera = _camera_summary(slam.config, stream.image_size)
+    if not (args.camera_height or args.camera_forward is not None or args.fov or args.config or args.load_map):
+        print(f"camera: assuming the testbed's: {camera} (--camera-height, --camera-forward and --fov "
+              "describe yours)", file=sys.stderr)
     if args.load_map:
         slam.begin_session(start=args.start)
     name = Path(args.frames).resolve().name
@@ -430,7 +478,7 @@ def _run(args: argparse.Namespace) -> int:
         return 130
     metrics = result.metrics()
     truth, levels = result.truth, stream.levels
-    rows = [("frames", str(result.frames))]
+    rows = [("frames", str(result.frames)), ("camera", camera)]
     if truth is not None:
         rows.append(("distance", f"{metrics['distance_m']:.1f} m"))
     if result.true_levels is not None:

@@ -234,7 +234,7 @@ class FolderStream:
             wheels = np.column_stack([positions[:, :2], yaw])
         if max_frames is not None:
             frames = frames[:max_frames]
-        check_frame_sizes(frames)
+        self.image_size = check_frame_sizes(frames)  # (width, height), pixels
         self.paths = frames
         if truth is not None:
             truth = type(truth)(truth.positions[: len(frames)], truth.yaw[: len(frames)],

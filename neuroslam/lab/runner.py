@@ -271,7 +271,30 @@ class Run:
                            experiences=themap.poses,
                            experience_frames=np.searchsorted(self.times, themap.creation_times),
                            links=themap.links, template_ids=self.active[:, 0], experience_ids=self.active[:, 1],
-                           times=self.times, title=self.title, path=path)
+                           times=self.times, title=self.title, headline=self.headline(),
+                           closure_frames=np.array([frame for frame, _, _ in self.closures], dtype=int),
+                           true_levels=self.true_levels, path=path)
+
+    def headline(self) -> str:
+        """The run's headline numbers in one line (the report figure's subtitle)."""
+        metrics = self.metrics()
+
+        def metres(value) -> str:
+            return "n/a" if value is None else f"{value:.2f} m"
+
+        parts = [f"{metrics['frames']} frames"]
+        if metrics.get("distance_m") is not None:
+            parts.append(f"{metrics['distance_m']:.0f} m")
+        if "ate_rmse_m" in metrics:
+            parts.append(f"SLAM ATE {metres(metrics['ate_rmse_m']['slam'])} "
+                         f"(odometry {metres(metrics['ate_rmse_m']['odometry'])})")
+        closures = f"{metrics['loop_closures']} loop closures"
+        if "false_loop_closures" in metrics:
+            closures += f" ({metrics['false_loop_closures']} false)"
+        parts += [closures, f"{metrics['experiences']} experiences"]
+        if metrics.get("level_accuracy") is not None:
+            parts.append(f"level accuracy {metrics['level_accuracy']:.2f}")
+        return " · ".join(parts)
 
 
 def _note_events(run: Run, estimate, frame: int) -> None:

@@ -11,9 +11,11 @@ def _run(frames: int = 60, height: float = 0.0):
     t = np.arange(frames) * 0.1
     truth = np.column_stack([np.cos(t / 3) * 5, np.sin(t / 3) * 5, np.full(frames, height), t / 3 + np.pi / 2])
     estimate = truth + np.column_stack([np.full(frames, 0.1), np.zeros((frames, 3))])
-    return {"odometry": truth * 1.05, "estimate": estimate, "experiences": estimate[::5],
-                "experience_frames": np.arange(0, frames, 5), "links": np.column_stack([np.arange(11), np.arange(1, 12)]),
-                "template_ids": np.arange(frames) // 5, "experience_ids": np.arange(frames) // 5, "times": t}, truth
+    arguments = {"odometry": truth * 1.05, "estimate": estimate, "experiences": estimate[::5],
+                 "experience_frames": np.arange(0, frames, 5),
+                 "links": np.column_stack([np.arange(11), np.arange(1, 12)]),
+                 "template_ids": np.arange(frames) // 5, "experience_ids": np.arange(frames) // 5, "times": t}
+    return arguments, truth
 
 
 def test_the_report_marks_closures_colours_levels_and_heads_with_numbers(tmp_path):

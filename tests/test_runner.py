@@ -40,7 +40,7 @@ class ListStream:
             if self.with_wheels:
                 before = self.poses[max(index - 1, 0)]
                 step = math.hypot(x - before[0], y - before[1])
-                wheels = Wheels(x, y, yaw, step * RATE, (yaw - before[2]) * RATE)
+                wheels = Wheels(step * RATE, (yaw - before[2]) * RATE, x, y, yaw)
             yield Frame(SCENE.render(x, y, yaw), index / RATE, index,
                         Truth(np.array([x, y, 0.0, yaw]), yaw_quaternion(yaw), 0), wheels, None, index + 1)
 

@@ -66,15 +66,16 @@ class Wheels:
     """Wheel odometry at a frame's time.
 
     Attributes:
-        x, y: m, and yaw: rad, dead-reckoned in the odometry frame (the start's).
         forward_speed: m/s and yaw_rate: rad/s, means since the previous frame.
+        x, y: m, and yaw: rad, dead-reckoned in the odometry frame (the start's); NaN where the source
+            gives only the rates (an environment's observation).
     """
 
-    x: float
-    y: float
-    yaw: float
     forward_speed: float
     yaw_rate: float
+    x: float = math.nan
+    y: float = math.nan
+    yaw: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -144,7 +145,7 @@ def _truth_of(ground_truth) -> Truth:
 
 def _wheels_of(odometry) -> Wheels:
     """A :class:`sim.WheelOdometry` as :class:`Wheels`."""
-    return Wheels(odometry.x, odometry.y, odometry.yaw, odometry.forward_speed, odometry.yaw_rate)
+    return Wheels(odometry.forward_speed, odometry.yaw_rate, odometry.x, odometry.y, odometry.yaw)
 
 
 class DriveStream:
@@ -270,13 +271,14 @@ class FolderStream:
             return None
         x, y, yaw = self.wheels[index]
         if index == 0:
-            return Wheels(float(x), float(y), float(yaw), 0.0, 0.0)
+            return Wheels(0.0, 0.0, float(x), float(y), float(yaw))
         dt = float(self.times[index] - self.times[index - 1])
         dx, dy = self.wheels[index, :2] - self.wheels[index - 1, :2]
         heading = self.wheels[index - 1, 2] + wrap(float(yaw - self.wheels[index - 1, 2])) / 2
         distance = math.copysign(math.hypot(dx, dy), dx * math.cos(heading) + dy * math.sin(heading))
-        return Wheels(float(x), float(y), float(yaw), distance / dt if dt > 0 else 0.0,
-                      wrap(float(yaw - self.wheels[index - 1, 2])) / dt if dt > 0 else 0.0)
+        return Wheels(distance / dt if dt > 0 else 0.0,
+                      wrap(float(yaw - self.wheels[index - 1, 2])) / dt if dt > 0 else 0.0, float(x), float(y),
+                      float(yaw))
 
     def describe(self) -> dict[str, Any]:
         return {"world": self.description.world or self.folder.resolve().name, "route": self.description.route}
@@ -319,16 +321,24 @@ class RolloutStream:
         self.levels = None if levels is None else tuple(float(level) for level in levels)
 
     @staticmethod
-    def frame_of(observation: dict, info: dict, index: int) -> Frame:
-        """One environment step's observation and info as a :class:`Frame`."""
-        pose = np.asarray(info["pose"], dtype=float)
-        truth = Truth(pose, yaw_quaternion(pose[3]), int(info.get("level", -1)))
+    def frame_of(observation, info: dict, index: int, *, time: float | None = None, image_key: str = "image",
+                 odometry_key: str | None = "odometry") -> Frame:
+        """One environment step's observation and info as a :class:`Frame`: the image (the observation, or
+        its ``image_key`` entry), the time (``time``, else ``info["time"]``), the truth where ``info`` has
+        ``pose`` (and ``level``), the wheels where the observation has ``odometry_key`` (forward speed, yaw
+        rate; with ``info["odometry_pose"]``'s x, y, yaw where given)."""
+        image = observation[image_key] if isinstance(observation, dict) else observation
+        truth = None
+        if "pose" in info:
+            pose = np.asarray(info["pose"], dtype=float)
+            truth = Truth(pose, yaw_quaternion(pose[3]), int(info.get("level", -1)))
         wheels = None
-        if "odometry" in observation and "odometry_pose" in info:
-            speed, yaw_rate = (float(value) for value in observation["odometry"])
-            x, y, yaw = (float(value) for value in info["odometry_pose"])
-            wheels = Wheels(x, y, yaw, speed, yaw_rate)
-        return Frame(np.asarray(observation["image"]), float(info["time"]), index, truth, wheels, None, index + 1)
+        if isinstance(observation, dict) and odometry_key is not None and odometry_key in observation:
+            speed, yaw_rate = (float(value) for value in observation[odometry_key][:2])
+            x, y, yaw = (float(value) for value in info.get("odometry_pose", (math.nan,) * 3))
+            wheels = Wheels(speed, yaw_rate, x, y, yaw)
+        when = float(info["time"]) if time is None else float(time)
+        return Frame(np.asarray(image), when, index, truth, wheels, None, index + 1)
 
     def __iter__(self) -> Iterator[Frame]:
         observation, info = self.env.reset(seed=self.seed, options=self.options)

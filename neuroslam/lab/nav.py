@@ -39,8 +39,7 @@ import numpy as np
 
 from .. import geometry
 from ..errors import InvalidParameterError
-from ..vision.odometry import SelfMotion
-from ..vision.preprocessing import grey
+from .frames import RolloutStream, SelfMotionSource
 
 __all__ = ["PlannerAgent", "RandomAgent", "load_agent", "run_episode", "summarise"]
 
@@ -138,8 +137,10 @@ class EpisodeRunner:
             self.slam = NeuroSLAM.load(self.load_map) if self.load_map is not None else NeuroSLAM("sim")
             if self.load_map is not None:
                 self.slam.begin_session(start="known")
-            self.slam_time = float(info["time"])
-            self.slam.step(observation["image"], self.slam_time)
+            # the wheels' speed and turn rate, the camera's views and pitch (as drive --odometry wheel)
+            self.self_motion = SelfMotionSource("wheel", self.slam)
+            frame = RolloutStream.frame_of(observation, info, 0)
+            self.slam.step(frame.image, frame.time, odometry=self.self_motion(frame))
             self.slam_anchor, self.slam_origin = self.start, self.slam.last.pose.copy()
 
     def act(self, observation: dict) -> np.ndarray:
@@ -153,13 +154,9 @@ class EpisodeRunner:
             origin, (x, y, yaw) = self.odometry_origin, np.array(info["odometry_pose"], dtype=float)
             travelled = geometry.relative(np.array([origin[0], origin[1], 0.0, origin[2]]), np.array([x, y, 0.0, yaw]))
             self.pose = geometry.compose(self.start, travelled)  # the wheels measure no height: the start's is kept
-        else:  # the wheels' speed and turn rate, the camera's views and pitch (as drive --odometry wheel)
-            time = float(info["time"])
-            self.slam.visual_odometry.step(grey(observation["image"]), time - self.slam_time)
-            speed, yaw_rate = (float(value) for value in observation["odometry"])
-            climb = self.slam.visual_odometry.climb_rate_at(speed)
-            estimate = self.slam.step(observation["image"], time, odometry=SelfMotion(speed, yaw_rate, climb))
-            self.slam_time = time
+        else:  # the SLAM's estimate
+            frame = RolloutStream.frame_of(observation, info, self.steps)
+            estimate = self.slam.step(frame.image, frame.time, odometry=self.self_motion(frame))
             if estimate.merged:  # the estimate moved into the loaded map's frame: keep the pose continuous
                 self.slam_anchor, self.slam_origin = self.pose, estimate.pose.copy()
             self.pose = geometry.compose(self.slam_anchor, geometry.relative(self.slam_origin, estimate.pose))

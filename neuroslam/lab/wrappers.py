@@ -19,7 +19,7 @@ from .. import presets
 from ..config import Config
 from ..errors import InvalidParameterError
 from ..slam import NeuroSLAM
-from ..vision.odometry import SelfMotion
+from .frames import RolloutStream, SelfMotionSource
 
 __all__ = ["NeuroSLAMWrapper"]
 
@@ -32,7 +32,8 @@ class NeuroSLAMWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         config: NeuroSLAM configuration (a Config, preset name or file; default: the ``sim`` preset).
         image_key: the image's key in a dict observation.
         odometry_key: a dict observation's (forward speed, yaw rate) entry to use as self-motion instead of
-            visual odometry (the climb rate stays 0), or None for visual odometry.
+            visual odometry (the climb rate from the camera's pitch, as ``neuroslam drive --odometry wheel``),
+            or None for visual odometry.
         add_to_observation: also put the estimated pose into the (dict) observation as ``slam_pose``.
     """
 
@@ -56,6 +57,7 @@ class NeuroSLAMWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         self.odometry_key = odometry_key
         self.add_to_observation = add_to_observation
         self.slam: NeuroSLAM | None = None
+        self._self_motion: SelfMotionSource | None = None
         self._steps = 0
         if add_to_observation:
             if not isinstance(env.observation_space, spaces.Dict):
@@ -72,12 +74,9 @@ class NeuroSLAMWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
         return self._steps / float(self.env.metadata.get("render_fps", 10))
 
     def _observe(self, observation: Any, info: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
-        image = observation[self.image_key] if isinstance(observation, dict) else observation
-        motion = None
-        if self.odometry_key is not None and self._steps > 0:
-            speed, yaw_rate = (float(v) for v in observation[self.odometry_key][:2])
-            motion = SelfMotion(speed, yaw_rate, 0.0)
-        estimate = self.slam.step(image, self._time(info), odometry=motion)
+        frame = RolloutStream.frame_of(observation, info, self._steps, time=self._time(info), image_key=self.image_key,
+                                       odometry_key=self.odometry_key)
+        estimate = self.slam.step(frame.image, frame.time, odometry=self._self_motion(frame))
         info = {**info, "slam_pose": estimate.pose.copy(), "slam_experience_id": int(estimate.experience_id),
                 "slam_loop_closure": bool(estimate.loop_closure)}
         if self.add_to_observation:
@@ -87,6 +86,7 @@ class NeuroSLAMWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         observation, info = self.env.reset(seed=seed, options=options)
         self.slam = NeuroSLAM(self.slam_config)
+        self._self_motion = SelfMotionSource("visual" if self.odometry_key is None else "wheel", self.slam)
         self._steps = 0
         return self._observe(observation, info)
 

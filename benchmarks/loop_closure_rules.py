@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import time
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -39,26 +38,19 @@ NEAR = 2.0  # m
 def drive(world: str, rule: str) -> dict:
     """One 2-lap drive of ``world``'s main route with the given loop-closure rule; the scores."""
     import sim
+    from neuroslam.lab.frames import DriveStream
+    from neuroslam.lab.runner import run
 
     config = presets.get("sim")
     changes = {"code": {"loop_closure": "code"}, "confirmed": {},
                "paper": {"confirmation_window": 10, "confirmation_matches": 7, "confirmation_spacing": 0.0}}[rule]
     config = config.replace(experience_map=dataclasses.replace(config.experience_map, **changes))
-    slam = NeuroSLAM(config)
-    times, truth, levels, current, closures = [], [], [], [], []
-    seconds = 0.0
-    with sim.ScriptedDrive(world, laps=2, seed=0) as frames:
-        for frame in frames:
-            started = time.perf_counter()
-            estimate = slam.step(frame.image, frame.time)
-            seconds += time.perf_counter() - started
-            times.append(frame.time)
-            truth.append(frame.ground_truth.pose)
-            levels.append(frame.ground_truth.level)
-            current.append(estimate.experience_id)
-            closures.append(estimate.loop_closure)
-    times, truth, levels = np.array(times), np.array(truth), np.array(levels)
-    current, closures = np.array(current), np.array(closures)
+    result = run(DriveStream(sim.ScriptedDrive(world, laps=2, seed=0)), NeuroSLAM(config), progress=False)
+    times, truth, levels = result.times, result.truth, result.true_levels
+    current = result.active[:, 1]  # the experience at each frame
+    closures = np.zeros(result.frames, dtype=bool)
+    closures[[frame for frame, _, _ in result.closures]] = True
+    slam = result.slam
     themap = slam.experience_map
     made = np.minimum(np.searchsorted(times, themap.creation_times), len(times) - 1)  # creation frames
     place, place_level = truth[made[current], :3], levels[made[current]]
@@ -77,8 +69,8 @@ def drive(world: str, rule: str) -> dict:
         "closure_precision": float(true_closures.sum() / max(closures.sum(), 1)),
         "revisit_recall": float((revisit & old & on_place).sum() / max(revisit.sum(), 1)),
         "revisit_precision": float((old & on_place).sum() / max(old.sum(), 1)),
-        "ate": ate_rmse(slam.trajectory()[:, :3], truth[:, :3]),
-        "ms": 1000 * seconds / len(times),
+        "ate": ate_rmse(result.estimate[:, :3], truth[:, :3]),
+        "ms": 1000 * result.slam_seconds / result.frames,
     }
 
 

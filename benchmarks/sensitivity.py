@@ -6,11 +6,12 @@ part of the pytest run.
 
 What it does: for each world, drives its main route once with the testbed's :class:`sim.ScriptedDrive` (the
 frames ``neuroslam drive`` sees: 160×120 RGB at 10 Hz, 1 m/s) and keeps the frames; then runs NeuroSLAM
-(camera only, the preset given, with a ``--config`` file's settings over it) on them ``1 + --seeds`` times:
+(camera only, the preset given, with a ``--config`` file's settings over it; the runner,
+:func:`neuroslam.lab.runner.run`, on a :class:`~neuroslam.lab.frames.MemoryStream`) on them ``1 + --seeds`` times:
 once as recorded (what ``neuroslam drive WORLD`` scores, up to the timing of the frames) and once per seed
 with uniform noise of ±``--noise`` grey levels (of 255) added to the grey image, below the 8-bit rounding of
 a camera. Each run is scored as
-``metrics.json`` scores it (:func:`neuroslam.evaluation.run_metrics`: Sim(3)-aligned ATE of the final
+``metrics.json`` scores it (:meth:`neuroslam.lab.runner.Run.metrics`: Sim(3)-aligned ATE of the final
 trajectory, false closures, level accuracy). It prints one row per run and, per world, the range over
 the runs. A wide range means the number in a table is one draw of a lottery, not a property of the
 system: which views match, and so which loops close, can flip on a grey level.
@@ -19,6 +20,7 @@ system: which views match, and so which loops close, can flip on a grey level.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 
 import numpy as np
 from tqdm import tqdm
@@ -26,53 +28,36 @@ from tqdm import tqdm
 import sim
 from neuroslam import presets
 from neuroslam.config import Config, load_config
-from neuroslam.evaluation import run_metrics
+from neuroslam.lab.frames import DriveStream, Frame, MemoryStream
+from neuroslam.lab.runner import run
 from neuroslam.slam import NeuroSLAM
 from neuroslam.vision.preprocessing import grey
 
 
-def record(world_name: str, laps: int, max_frames: int | None = None
-           ) -> tuple[object, list[np.ndarray], np.ndarray, np.ndarray, np.ndarray]:
-    """The drive's RGB frames, times (s), true poses (N, 4: x, y, z m, yaw rad) and true levels."""
-    world = sim.load_world(world_name)
-    drive = sim.ScriptedDrive(world, laps=laps, max_frames=max_frames)
-    images, times, poses, levels = [], [], [], []
-    with tqdm(total=int(drive.total_distance), unit="m", desc=f"render {world_name}", leave=False) as bar:
-        for frame in drive:
-            images.append(frame.image)
-            times.append(frame.time)
-            poses.append(frame.ground_truth.pose)
-            levels.append(frame.ground_truth.level)
+def record(world_name: str, laps: int, max_frames: int | None = None) -> MemoryStream:
+    """The drive's frames (image, time, truth), rendered once, to replay."""
+    drive = sim.ScriptedDrive(world_name, laps=laps, max_frames=max_frames)
+    stream = DriveStream(drive)
+    with tqdm(total=int(stream.total), unit="m", desc=f"render {world_name}", leave=False) as bar:
+        frames = []
+        for frame in stream:
+            frames.append(frame)
             bar.update(min(int(frame.progress), bar.total) - bar.n)
-    return world, images, np.array(times), np.array(poses), np.array(levels)
+    return MemoryStream(frames, name=world_name, levels=stream.levels, description=stream.describe())
 
 
-def score(config: Config, world, images: list[np.ndarray], times: np.ndarray, poses: np.ndarray, levels: np.ndarray,
-          noise: float, seed: int | None) -> dict:
-    """One SLAM run on the frames (with noise when ``seed`` is not None), scored against the truth."""
+def score(config: Config, recorded: MemoryStream, noise: float, seed: int | None) -> dict:
+    """One SLAM run on the frames (with noise when ``seed`` is not None), scored as ``metrics.json`` is."""
     rng = None if seed is None else np.random.default_rng(seed)
-    slam = NeuroSLAM(config)
-    closure_frames, closed, odometry, online = [], [], [], []
-    for index, (image, time) in enumerate(zip(tqdm(images, desc="slam", leave=False), times, strict=True)):
-        if rng is not None:
-            image = np.clip(grey(image) + rng.uniform(-noise, noise, image.shape[:2]).astype(np.float32) / 255,
-                            0.0, 1.0)
-        estimate = slam.step(image, float(time))
-        odometry.append(slam.odometry_pose)
-        online.append(estimate.pose)
-        if estimate.loop_closure:
-            closure_frames.append(index)
-            closed.append(estimate.experience_id)
-    themap = slam.experience_map
-    made = np.minimum(np.searchsorted(times, themap.creation_times), len(times) - 1)  # frame of each experience
-    then = made[np.array(closed, dtype=int)]
-    metrics = run_metrics(
-        truth=poses, true_levels=levels, levels=np.array(world.levels), estimate=slam.trajectory(),
-        odometry=np.array(odometry), online_estimate=np.array(online),
-        experience_positions=themap.poses[:, :3], experience_truth=poses[made, :3],
-        closure_frames=np.array(closure_frames, dtype=int), closure_truth=poses[then, :3],
-        closure_levels=levels[then])
-    return metrics
+
+    def noisy(frame: Frame) -> Frame:
+        image = grey(frame.image)
+        image = np.clip(image + rng.uniform(-noise, noise, image.shape[:2]).astype(np.float32) / 255, 0.0, 1.0)
+        return dataclasses.replace(frame, image=image)
+
+    stream = MemoryStream(recorded.frames, name=recorded.name, levels=recorded.levels,
+                          description=recorded.describe(), transform=None if rng is None else noisy)
+    return run(stream, NeuroSLAM(config), progress=False).metrics()
 
 
 def main() -> None:
@@ -95,10 +80,10 @@ def main() -> None:
     print(f"{'world':9s} {'run':>9s} {'closures (false)':>17s} {'SLAM ATE':>9s} {'online':>7s} {'odometry':>9s} "
           f"{'ratio':>6s} {'level':>6s}")
     for world_name in args.worlds:
-        world, images, times, poses, levels = record(world_name, args.laps, args.max_frames)
+        recorded = record(world_name, args.laps, args.max_frames)
         rows = []
         for seed in [None, *range(1, args.seeds + 1)]:
-            metrics = score(config, world, images, times, poses, levels, args.noise, seed)
+            metrics = score(config, recorded, args.noise, seed)
             ate = metrics["ate_rmse_m"]
             rows.append((ate["slam"], ate["odometry"], metrics["false_loop_closures"]))
             label = "recorded" if seed is None else f"noise {seed}"

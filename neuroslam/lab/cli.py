@@ -547,6 +547,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     from ..vision.calibration import fit_odometry_gains
     from ..vision.odometry import VisualOdometry
     from ..vision.preprocessing import grey
+    from .frames import DriveStream
 
     if args.out.is_dir() or (args.out.exists() and not args.overwrite):
         raise InvalidParameterError("--out", str(args.out), "is a folder; name a file" if args.out.is_dir()
@@ -560,20 +561,20 @@ def _calibrate(args: argparse.Namespace) -> int:
     odometry = VisualOdometry(neutral, horizontal_fov=base.horizontal_fov, vertical_fov=base.vertical_fov,
                               panoramic=base.panoramic)
     world, route = _world_and_route(args)
-    drive = sim.ScriptedDrive(world, route=route, laps=args.laps, speed=args.speed, max_frames=args.max_frames,
-                              seed=args.seed)
+    stream = DriveStream(sim.ScriptedDrive(world, route=route, laps=args.laps, speed=args.speed,
+                                           max_frames=args.max_frames, seed=args.seed))
     rows = []
     previous = None
-    with tqdm(total=int(drive.total_distance), unit="m", desc=f"calibrate {world.name}") as bar:
-        for frame in drive:
+    with tqdm(total=int(stream.total), unit=stream.unit, desc=f"calibrate {world.name}") as bar:
+        for frame in stream:
             dt = 0.0 if previous is None else frame.time - previous.time
             pitch_before = odometry.pitch
             motion = odometry.step(grey(frame.image), dt)
-            truth = frame.ground_truth
+            truth = frame.truth
             if previous is not None:
-                turn = wrap(truth.yaw - previous.ground_truth.yaw)
+                turn = wrap(float(truth.pose[3] - previous.truth.pose[3]))
                 rows.append((dt, motion.forward_speed * dt, motion.yaw_rate, odometry.pitch - pitch_before,
-                             float(np.hypot(*truth.velocity[:2])), turn / dt, truth.position[2]))
+                             float(np.hypot(*truth.velocity[:2])), turn / dt, truth.pose[2]))
             previous = frame
             bar.update(min(int(frame.progress), bar.total) - bar.n)
     table = np.array(rows)

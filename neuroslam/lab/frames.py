@@ -8,7 +8,9 @@ should say about it). Three sources:
 - :class:`DriveStream`: a scripted drive through a simulated world (:class:`sim.ScriptedDrive`);
 - :class:`FolderStream`: a folder of recorded images, with the ground truth, wheel odometry and levels it
   holds (``neuroslam record`` writes such folders; your own camera's frames are one too);
-- :class:`RolloutStream`: a gymnasium environment of :mod:`sim` stepped by a policy.
+- :class:`RolloutStream`: a gymnasium environment of :mod:`sim` stepped by a policy;
+- :class:`MemoryStream`: frames held in memory (a drive rendered once and replayed many times, each time
+  perhaps changed on the way out: noise added, frames dropped).
 
 :class:`SelfMotionSource` is the one place that turns a frame into self-motion for each odometry mode
 (``visual``: the SLAM's own visual odometry; ``wheel``: the encoders' speed and turn, the camera's pitch;
@@ -37,8 +39,8 @@ from ..vision.preprocessing import grey
 if TYPE_CHECKING:
     from ..slam import NeuroSLAM
 
-__all__ = ["ODOMETRY_MODES", "DriveStream", "FolderStream", "Frame", "FrameStream", "Inertial", "OdometryMode",
-           "RolloutStream", "SelfMotionSource", "Truth", "Wheels"]
+__all__ = ["ODOMETRY_MODES", "DriveStream", "FolderStream", "Frame", "FrameStream", "Inertial", "MemoryStream",
+           "OdometryMode", "RolloutStream", "SelfMotionSource", "Truth", "Wheels"]
 
 OdometryMode = Literal["visual", "wheel", "visual-inertial"]
 ODOMETRY_MODES: tuple[str, ...] = ("visual", "wheel", "visual-inertial")
@@ -360,6 +362,46 @@ class RolloutStream:
 
     def map_metadata(self) -> dict[str, str]:
         return {"world": self.name}
+
+    @property
+    def title(self) -> str:
+        return self.name
+
+
+class MemoryStream:
+    """Frames held in memory, replayed as a stream, each passed through ``transform`` on the way out.
+
+    Args:
+        frames: the frames (for example ``list(DriveStream(drive))``: a drive rendered once).
+        name: for progress bars and titles. levels: floor heights, m, or None.
+        description: what ``metrics.json`` says about the source (default: ``{"world": name, "route": None}``).
+        transform: ``transform(frame) -> frame`` (for example noise added to the image), or None.
+    """
+
+    unit = "frame"
+
+    def __init__(self, frames: list[Frame], *, name: str = "frames", levels=None, description: dict | None = None,
+                 transform: Callable[[Frame], Frame] | None = None) -> None:
+        self.frames, self.name, self.transform = list(frames), name, transform
+        self.levels = None if levels is None else tuple(levels)
+        self.description = {"world": name, "route": None} if description is None else dict(description)
+        self.total = float(len(self.frames))
+
+    def __iter__(self) -> Iterator[Frame]:
+        for frame in self.frames:
+            yield frame if self.transform is None else self.transform(frame)
+
+    def describe(self) -> dict[str, Any]:
+        return dict(self.description)
+
+    def summary(self) -> dict[str, Any]:
+        return {}
+
+    def timings(self) -> dict[str, float | None]:
+        return {"physics": None, "render": None}
+
+    def map_metadata(self) -> dict[str, str]:
+        return {key: str(value) for key, value in self.description.items() if value is not None}
 
     @property
     def title(self) -> str:

@@ -97,10 +97,10 @@ class RunRecorder:
     Example::
 
         recorder = RunRecorder(out / "run.rrd", name="carpark")
-        for frame in frames:
-            estimate = slam.step(frame.image, frame.time)
-            recorder.log_frame(frame.time, frame.image, slam, estimate, frame.ground_truth.pose)
-        recorder.close()
+        run(DriveStream(sim.ScriptedDrive("carpark")), slam, recorder=recorder)  # logs every frame, closes it
+
+    (:func:`neuroslam.lab.runner.run`; by hand: ``recorder.log_frame(time, image, slam, estimate, true_pose)``
+    after each ``slam.step``, then ``recorder.close()``.)
     """
 
     def __init__(self, path: str | Path, *, name: str = "neuroslam", every: int = 10, grid_cells: int = 400,

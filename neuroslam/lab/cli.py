@@ -102,6 +102,13 @@ def _slam_options(parser: argparse.ArgumentParser, *, sessions: bool = False) ->
                             "view places it there), 'unknown' if it may start anywhere (default: unknown)")
 
 
+def _output_options(parser: argparse.ArgumentParser, text: str, *, required: bool = False) -> None:
+    """``--out`` (an output folder) and ``--overwrite`` of the commands that write a run or a dataset."""
+    parser.add_argument("--out", type=Path, required=required, help=text)
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace an earlier run or dataset in --out (its files are deleted first)")
+
+
 def _record_option(parser: argparse.ArgumentParser) -> None:
     """The ``--record`` option of the commands that run NeuroSLAM."""
     parser.add_argument("--record", action="store_true",
@@ -159,9 +166,7 @@ def _parser() -> argparse.ArgumentParser:
                        help="self-motion from the camera (visual odometry), from the wheel encoders with the "
                        "camera's pitch for the height rate, or from the camera with the height rate from the IMU's "
                        "gravity direction (visual-inertial; not the paper's) (default: visual)")
-    drive.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
-    drive.add_argument("--overwrite", action="store_true",
-                       help="replace an earlier run or dataset in --out (its files are deleted first)")
+    _output_options(drive, "output folder (default: a new folder under runs/)")
     _record_option(drive)
 
     run = commands.add_parser(
@@ -191,9 +196,7 @@ def _parser() -> argparse.ArgumentParser:
                      help="self-motion from the camera (visual odometry), or from the wheel odometry the folder "
                      "holds (wheel_odometry.tum, as neuroslam record writes it) with the camera's pitch for the "
                      "height rate (default: visual)")
-    run.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
-    run.add_argument("--overwrite", action="store_true",
-                       help="replace an earlier run or dataset in --out (its files are deleted first)")
+    _output_options(run, "output folder (default: a new folder under runs/)")
     _record_option(run)
 
     record = commands.add_parser(
@@ -203,9 +206,7 @@ def _parser() -> argparse.ArgumentParser:
         "can replay.")
     record.add_argument("world", help="built-in world name, gen:SEED, or an MJCF file")
     _drive_options(record, laps=1, camera=True)
-    record.add_argument("--out", type=Path, required=True, help="dataset folder to write")
-    record.add_argument("--overwrite", action="store_true",
-                       help="replace an earlier run or dataset in --out (its files are deleted first)")
+    _output_options(record, "dataset folder to write", required=True)
 
     calibrate = commands.add_parser(
         "calibrate", help="fit the visual-odometry gains to ground truth and write a config file",
@@ -285,9 +286,7 @@ def _parser() -> argparse.ArgumentParser:
     nav.add_argument("--max-steps", type=_positive_int, default=1500, help="steps per episode (default: 1500)")
     nav.add_argument("--num-envs", type=_positive_int, default=1,
                      help="run episodes in a gymnasium async vector env of this many copies (spawned processes)")
-    nav.add_argument("--out", type=Path, help="output folder (default: a new folder under runs/)")
-    nav.add_argument("--overwrite", action="store_true",
-                       help="replace an earlier run or dataset in --out (its files are deleted first)")
+    _output_options(nav, "output folder (default: a new folder under runs/)")
 
     commands.add_parser("worlds", help="list the built-in worlds with their levels and routes",
                         description="List the built-in worlds with their floor levels and routes.")

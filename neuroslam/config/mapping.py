@@ -1,0 +1,115 @@
+"""The experience map's section: matching, loop closure and relaxation."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .checks import non_negative, number, positive, require
+from .options import LOOP_CLOSURES, RELAXATIONS, LoopClosure, Relaxation
+
+__all__ = ["ExperienceMapConfig"]
+
+
+@dataclass(frozen=True)
+class ExperienceMapConfig:
+    """Multilayered experience map (NeuroSLAM eqs. 21–25).
+
+    Attributes:
+        view_weight, grid_weight, direction_weight: mu^lv, mu^gc, mu^hdc of NeuroSLAM eq. 22; the grid and
+            direction distances are in cells, the view term is 1 for a different template.
+        threshold: S_max of NeuroSLAM eq. 22; a score above it for every experience creates a new one.
+        correction: psi of NeuroSLAM eq. 25, per relaxation pass (scaled by each experience's number of links).
+        relaxation_passes: passes of NeuroSLAM eq. 25 after a loop closure.
+        idle_passes: passes of NeuroSLAM eq. 25 on frames without a loop closure.
+        relaxation: ``passes`` (the paper: ``relaxation_passes`` / ``idle_passes`` of NeuroSLAM eq. 25 per frame)
+            or ``least-squares`` (the minimum of the link errors those passes reduce, solved directly after
+            each loop closure; see :meth:`neuroslam.experience_map.ExperienceMap._solve`).
+        loop_closure: ``code`` (the paper: re-entering any experience whose conjunctive code matches,
+            NeuroSLAM eq. 22, closes a loop) or ``confirmed`` (the rule of the grid-network paper, section III: a
+            loop closes only when more than ``confirmation_matches - 1`` of the last
+            ``confirmation_window`` frames matched familiar views consistently, i.e. at old experiences
+            laid out as the odometry of those frames says, within ``confirmation_tolerance`` metres;
+            a confirmed place also moves both networks' packets to its codes).
+        confirmation_window, confirmation_matches: frames looked back, and how many must agree. The
+            paper's rule is 10 and 7 with ``confirmation_spacing`` 0; the ``sim`` defaults (20 and 16,
+            one frame per metre) look back 20 m, because a view there stays the same over a metre or two.
+        confirmation_spacing: m; 0 counts every frame (the paper), a distance keeps one frame per that
+            much travel in the window, so a view seen for many frames counts once per spacing.
+        confirmation_turn: rad; turning on the spot (on a path curving tighter than 0.5 m, the robot's half
+            length) keeps one frame per this much turn too, so a robot turning in place at a place it knows
+            confirms it without travelling. 5°: the 16 agreeing frames then span 80°, the testbed camera's
+            field of view, over which every part of the view has changed. 0: travel alone counts.
+        confirmation_views: templates that count as a window frame's view: its best match and the next
+            ones within the match threshold (1: the best alone, the paper). A place seen again a little
+            off its first path often matches another place's template slightly better than its own
+            (measured on urban's second lap, repeated facades: the best match was at the right place for
+            88 % of the frames, one of the matches within the threshold for 98.6 %). With the best alone,
+            the 16 of 20 agreeing frames came and went, and whether a loop closed depended on the noise
+            (urban: SLAM ATE 1.59–1.87 m over three runs with imperceptible noise; with 2, 0.79–0.81 m).
+            The others only add evidence: hypotheses come from the best match, and whether a view is
+            uninformative from its best match's spread.
+        confirmation_tolerance: m, how far a frame's matched experience may lie from where the
+            hypothesis puts it. confirmation_age: s, experiences younger than this are not a revisit.
+        confirmation_drift: m per m driven since the last loop closure: a hypothesis must lie within
+            ``confirmation_tolerance`` plus this times that distance of the current estimate.
+        confirmation_climb_error: m of height per m driven: the same for heights (the visual odometry's
+            height drifts faster than its position), and how far the window's heights may disagree.
+        closure_weight: weight of a loop-closure link's squared errors in the least-squares map, relative to
+            a link made by driving (1: all alike). A closure puts the robot on a remembered experience
+            that it may pass up to ``confirmation_tolerance`` away from; a link driven between two
+            experiences is accurate to centimetres.
+    """
+
+    view_weight: float = 10.0
+    grid_weight: float = 1.0
+    direction_weight: float = 1.0
+    threshold: float = 1.0
+    correction: float = 0.5
+    relaxation_passes: int = 5
+    idle_passes: int = 1
+    relaxation: Relaxation = "least-squares"
+    loop_closure: LoopClosure = "confirmed"
+    confirmation_window: int = 20
+    confirmation_matches: int = 16
+    confirmation_spacing: float = 1.0
+    confirmation_turn: float = math.radians(5.0)
+    confirmation_views: int = 2
+    confirmation_tolerance: float = 1.0
+    confirmation_age: float = 30.0
+    confirmation_drift: float = 0.1
+    confirmation_climb_error: float = 0.3
+    closure_weight: float = 0.1
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self, path: str = "experience_map") -> None:
+        non_negative(path, view_weight=self.view_weight, grid_weight=self.grid_weight,
+                      direction_weight=self.direction_weight)
+        positive(path, threshold=self.threshold)
+        require(f"{path}.correction", self.correction, number(self.correction) and 0 < self.correction <= 1,
+                 "must be in (0, 1]")
+        for name in ("relaxation_passes", "idle_passes"):
+            value = getattr(self, name)
+            require(f"{path}.{name}", value, isinstance(value, int) and 0 <= value <= 1000,
+                     "must be an integer from 0 to 1000")
+        require(f"{path}.relaxation", self.relaxation, self.relaxation in RELAXATIONS,
+                 f"must be one of {', '.join(RELAXATIONS)}")
+        require(f"{path}.loop_closure", self.loop_closure, self.loop_closure in LOOP_CLOSURES,
+                 f"must be one of {', '.join(LOOP_CLOSURES)}")
+        window = self.confirmation_window
+        require(f"{path}.confirmation_window", window, isinstance(window, int) and 1 <= window <= 1000,
+                 "must be an integer from 1 to 1000")
+        matches = self.confirmation_matches
+        require(f"{path}.confirmation_matches", matches,
+                 isinstance(matches, int) and 1 <= matches <= (window if isinstance(window, int) else 1000),
+                 "must be an integer from 1 to confirmation_window")
+        views = self.confirmation_views
+        require(f"{path}.confirmation_views", views,
+                 isinstance(views, int) and not isinstance(views, bool) and 1 <= views <= 100,
+                 "must be an integer from 1 to 100")
+        positive(path, confirmation_tolerance=self.confirmation_tolerance, closure_weight=self.closure_weight)
+        non_negative(path, confirmation_age=self.confirmation_age, confirmation_drift=self.confirmation_drift,
+                      confirmation_climb_error=self.confirmation_climb_error,
+                      confirmation_spacing=self.confirmation_spacing, confirmation_turn=self.confirmation_turn)

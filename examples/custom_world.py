@@ -15,11 +15,10 @@ import shutil
 import tempfile
 from pathlib import Path
 
-import numpy as np
-
 import sim
 from neuroslam import NeuroSLAM
-from neuroslam.evaluation import ate_rmse
+from neuroslam.lab.frames import DriveStream
+from neuroslam.lab.runner import run
 
 DECK = 1.5  # m, the mezzanine's floor
 FOOT, TOP = 7.0, -4.0  # x of the ramps' feet (on the ground) and tops (at the mezzanine's edge)
@@ -81,13 +80,10 @@ print(f"world {world.name}: levels {world.levels}, route of {world.route().lengt
       f"{math.degrees(slope):.1f} degrees")
 
 max_frames = int(os.environ.get("NEUROSLAM_EXAMPLE_FRAMES", "0")) or None
-slam = NeuroSLAM("sim")
-truth = []
-with sim.ScriptedDrive(world, laps=2, max_frames=max_frames, seed=0) as drive:
-    for frame in drive:
-        slam.step(frame.image, frame.time)
-        truth.append(frame.ground_truth.position)
-truth, estimate = np.array(truth), slam.trajectory()
-print(f"{len(truth)} frames over {truth[:, 2].min():.2f}..{truth[:, 2].max():.2f} m of height; "
-      f"{slam.experience_map.loop_closures} loop closures; SLAM ATE {ate_rmse(estimate[:, :3], truth):.2f} m")
+result = run(DriveStream(sim.ScriptedDrive(world, laps=2, max_frames=max_frames, seed=0)), NeuroSLAM("sim"))
+metrics = result.metrics()
+low, high = metrics["height_range_m"]
+print(f"{metrics['frames']} frames over {low:.2f}..{high:.2f} m of height; levels visited "
+      f"{metrics['levels_visited']}; {metrics['loop_closures']} loop closures; SLAM ATE "
+      f"{metrics['ate_rmse_m']['slam']:.2f} m")
 shutil.rmtree(folder)  # keep yours: hall.xml and hall.routes.json are a world like any other

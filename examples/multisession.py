@@ -19,20 +19,17 @@ import numpy as np
 
 import sim
 from neuroslam import NeuroSLAM
+from neuroslam.lab.frames import DriveStream
+from neuroslam.lab.runner import run
 
 max_frames = int(os.environ.get("NEUROSLAM_EXAMPLE_FRAMES", "0")) or None
 
 
 def drive(slam, route):
     """One lap of ``route``; returns the frames' true positions and the frame indices that merged maps."""
-    positions, merges = [], []
-    with sim.ScriptedDrive("carpark", route=route, laps=1, max_frames=max_frames, seed=0) as frames:
-        for index, frame in enumerate(frames):
-            estimate = slam.step(frame.image, frame.time)
-            positions.append(frame.ground_truth.position)
-            if estimate.merged:
-                merges.append(index)
-    return np.array(positions), merges
+    result = run(DriveStream(sim.ScriptedDrive("carpark", route=route, laps=1, max_frames=max_frames, seed=0)),
+                 slam, progress=False)
+    return result.truth[:, :3], [frame for frame, _, _ in result.merges]
 
 
 first = NeuroSLAM("sim")

@@ -134,3 +134,15 @@ def test_self_motion_sources_refuse_what_they_cannot_use():
         SelfMotionSource("wheel", slam)(frame)
     with pytest.raises(InvalidParameterError, match="no IMU"):
         SelfMotionSource("visual-inertial", slam)(frame)
+
+
+def test_a_run_continues_a_loaded_map_and_reports_its_merges(tmp_path):
+    first = run(ListStream(POSES[:30]), NeuroSLAM("sim"), progress=False)
+    first.slam.save(tmp_path / "map.npz")
+    slam = NeuroSLAM.load(tmp_path / "map.npz")
+    slam.begin_session()
+    second = run(ListStream(POSES[:30]), slam, progress=False)  # no truth saved with the map: unknown, not an error
+    metrics = second.metrics()
+    assert metrics["frames"] == 30 and "merges" in metrics and "false_merges" in metrics
+    size = first.slam.experience_map.size
+    assert second.book.of(np.arange(size))[1].tolist() == [-1] * size

@@ -50,16 +50,19 @@ class ExperienceTruth:
 
     Args:
         slam: the SLAM whose map is looked up.
-        loaded_poses, loaded_levels: (K, 4) and (K,), in the order of the loaded maps' experiences.
-        from_maps: the session continues loaded maps (``metrics.json`` then reports merges).
+        loaded_poses, loaded_levels: (K, 4) and (K,), in the order of the experiences the SLAM already holds
+            (None: unknown, NaN and -1).
+        from_maps: the session continues loaded maps (``metrics.json`` then reports merges); None: whenever
+            the SLAM already holds experiences.
     """
 
     def __init__(self, slam: NeuroSLAM, loaded_poses: np.ndarray | None = None,
-                 loaded_levels: np.ndarray | None = None, *, from_maps: bool = False):
+                 loaded_levels: np.ndarray | None = None, *, from_maps: bool | None = None):
         self.slam = slam
         themap = slam.experience_map
-        loaded_poses = np.zeros((0, 4)) if loaded_poses is None else loaded_poses
-        loaded_levels = np.zeros(0, dtype=int) if loaded_levels is None else loaded_levels
+        loaded_poses = np.full((themap.size, 4), np.nan) if loaded_poses is None else loaded_poses
+        loaded_levels = np.full(themap.size, -1) if loaded_levels is None else loaded_levels
+        from_maps = themap.size > 0 if from_maps is None else from_maps
         self.loaded = {(int(session), float(time)): (np.asarray(pose, dtype=float), int(level))
                        for session, time, pose, level in zip(themap.sessions, themap.creation_times, loaded_poses,
                                                              loaded_levels, strict=True)}

@@ -19,13 +19,13 @@ import matplotlib.pyplot as plt
 
 import sim
 from neuroslam import NeuroSLAM
+from neuroslam.lab.frames import DriveStream
+from neuroslam.lab.runner import run
 
 frames = int(os.environ.get("NEUROSLAM_EXAMPLE_FRAMES", "0")) or 400
 
-slam = NeuroSLAM("sim")
-with sim.ScriptedDrive("carpark", laps=1, max_frames=frames, seed=0) as drive:
-    for frame in drive:
-        estimate = slam.step(frame.image, frame.time)
+result = run(DriveStream(sim.ScriptedDrive("carpark", laps=1, max_frames=frames, seed=0)), NeuroSLAM("sim"))
+slam, estimate = result.slam, result.slam.last
 
 figure, (grid, direction, experiences) = plt.subplots(1, 3, figsize=(13, 4))
 grid.imshow(slam.grid_cells.activity.sum(axis=2).T, origin="lower", cmap="magma")

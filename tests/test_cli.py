@@ -233,3 +233,29 @@ def test_drive_with_the_grid_network_integrator(tmp_path):
     saved = NeuroSLAM.load(tmp_path)
     assert saved.config.integrator == "grid-network" and saved.grid_network is not None
     assert json.loads((tmp_path / "metrics.json").read_text())["frames"] == 30
+
+
+def test_ctrl_c_keeps_what_was_done_or_leaves_nothing(tmp_path, monkeypatch, capsys):
+    """Ctrl-C during a drive: the frames done are written (metrics.json says so) and the exit code is 130;
+    before the first frame, nothing is left behind."""
+    from neuroslam.lab.frames import DriveStream
+
+    iterate = DriveStream.__iter__
+
+    def interrupted_after(frames):
+        def frames_then_ctrl_c(self):
+            for count, frame in enumerate(iterate(self)):
+                if count == frames:
+                    raise KeyboardInterrupt
+                yield frame
+        return frames_then_ctrl_c
+
+    monkeypatch.setattr(DriveStream, "__iter__", interrupted_after(12))
+    assert main(["drive", "gen:1", "--max-frames", "30", "--out", str(tmp_path / "some")]) == 130
+    assert "interrupted after 12 frames" in capsys.readouterr().err
+    metrics = json.loads((tmp_path / "some" / "metrics.json").read_text())
+    assert metrics["interrupted"] is True and metrics["frames"] == 12
+    assert len(read_tum(tmp_path / "some" / "slam.tum")[0]) == 12
+    monkeypatch.setattr(DriveStream, "__iter__", interrupted_after(0))
+    assert main(["drive", "gen:1", "--max-frames", "30", "--out", str(tmp_path / "none")]) == 130
+    assert not (tmp_path / "none").exists()

@@ -24,15 +24,17 @@ What it does: for each world, drives its main route once (the frames ``neuroslam
 from __future__ import annotations
 
 import argparse
+import dataclasses
 
 import numpy as np
 from sensitivity import record
-from tqdm import tqdm
 
 from neuroslam import presets
 from neuroslam.config import load_config
 from neuroslam.geometry import relative as relative_pose
 from neuroslam.geometry import wrap
+from neuroslam.lab.frames import Frame, MemoryStream
+from neuroslam.lab.runner import run
 from neuroslam.slam import NeuroSLAM
 from neuroslam.vision.preprocessing import grey
 
@@ -69,6 +71,32 @@ def closure_errors(closures: list[tuple[int, int, np.ndarray]], creation_frames:
     return np.array(errors).reshape(-1, 4)
 
 
+def measure(recorded: MemoryStream, config, noise: float, seed: int | None):
+    """The runner on the recorded frames (with uniform noise of ±``noise`` grey levels when ``seed`` is given):
+    (the run, each frame's distance read (m), yaw change read (rad), each loop closure's (frame, experience,
+    the robot's pose relative to it as the map has it right after the closure))."""
+    rng = None if seed is None else np.random.default_rng(seed)
+
+    def noisy(frame: Frame) -> Frame:
+        image = grey(frame.image)
+        image = np.clip(image + rng.uniform(-noise, noise, image.shape[:2]).astype(np.float32) / 255, 0.0, 1.0)
+        return dataclasses.replace(frame, image=image)
+
+    distances, yaw_changes, closures = [], [], []
+    times = np.array([frame.time for frame in recorded.frames])
+
+    def keep(frame: Frame, estimate, slam) -> None:
+        dt = frame.time - times[frame.index - 1] if frame.index else 0.0
+        distances.append(estimate.self_motion.forward_speed * dt)
+        yaw_changes.append(estimate.self_motion.yaw_rate * dt)
+        if estimate.loop_closure:  # the link the closure adds: the robot relative to the re-entered experience
+            closures.append((frame.index, estimate.experience_id, slam.experience_map.relative.copy()))
+
+    stream = MemoryStream(recorded.frames, name=recorded.name, levels=recorded.levels,
+                          description=recorded.describe(), transform=None if rng is None else noisy)
+    return run(stream, NeuroSLAM(config), on_frame=keep), distances, yaw_changes, closures
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--worlds", nargs="+", default=["building", "gen1:3"], help="worlds to drive")
@@ -85,20 +113,10 @@ def main() -> None:
     if args.config is not None:
         config = load_config(args.config, base=config)
     for world_name in args.worlds:
-        _world, images, times, poses, levels = record(world_name, args.laps, args.max_frames)
-        rng = None if args.seed is None else np.random.default_rng(args.seed)
-        slam = NeuroSLAM(config)
-        distances, yaw_changes, closures = [], [], []
-        for index, (image, time) in enumerate(zip(tqdm(images, desc="slam", leave=False), times, strict=True)):
-            if rng is not None:
-                image = np.clip(grey(image) + rng.uniform(-args.noise, args.noise, image.shape[:2]).astype(np.float32)
-                                / 255, 0.0, 1.0)
-            estimate = slam.step(image, float(time))
-            dt = time - times[index - 1] if index else 0.0
-            distances.append(estimate.self_motion.forward_speed * dt)
-            yaw_changes.append(estimate.self_motion.yaw_rate * dt)
-            if estimate.loop_closure:
-                closures.append((index, estimate.experience_id, slam.experience_map.relative.copy()))
+        recorded = record(world_name, args.laps, args.max_frames)
+        result, distances, yaw_changes, closures = measure(recorded, config, args.noise, args.seed)
+        slam, poses, levels, images = result.slam, result.truth, result.true_levels, recorded.frames
+        times = result.times
         themap = slam.experience_map
         creation_frames = np.minimum(np.searchsorted(times, themap.creation_times), len(times) - 1)
         print(f"{world_name} ({len(images)} frames{'' if args.seed is None else f', noise seed {args.seed}'})")

@@ -69,8 +69,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.config:
         config = load_config(args.config, base=config)
     for world_name in args.worlds:
-        _, frames, times, poses, _ = record(world_name, args.laps, args.max_frames or None)
-        images = [grey(frame) for frame in frames]
+        recorded = record(world_name, args.laps, args.max_frames or None).frames
+        times, poses = np.array([frame.time for frame in recorded]), np.array([frame.truth.pose for frame in recorded])
+        images = [grey(frame.image) for frame in recorded]
         heading = np.unwrap(poses[:, 3])
         true_turn = np.diff(heading)
         straight = np.abs(true_turn) < STRAIGHT

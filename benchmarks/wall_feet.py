@@ -243,7 +243,9 @@ def main(argv: list[str] | None = None) -> int:
         config = load_config(args.config, base=config)
     print(synthetic(args.texture), flush=True)
     for world in args.worlds:
-        _, images, times, poses, _ = record(world, args.laps, args.max_frames or None)
+        recorded = record(world, args.laps, args.max_frames or None).frames
+        images = [frame.image for frame in recorded]
+        times, poses = np.array([frame.time for frame in recorded]), np.array([frame.truth.pose for frame in recorded])
         print(world + ":\n  " + "\n  ".join(measure(config, images, times, poses, args.texture)), flush=True)
     return 0
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 import json
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -35,6 +36,7 @@ from ..tum import write_tum, yaw_quaternion
 from .frames import Frame, FrameStream, SelfMotionSource
 
 if TYPE_CHECKING:
+    from ..estimate import Estimate
     from .recording import RunRecorder
 
 __all__ = ["ExperienceTruth", "Run", "load_sessions", "run"]
@@ -310,7 +312,8 @@ def _note_events(run: Run, estimate, frame: int) -> None:
 
 
 def run(stream: FrameStream, slam: NeuroSLAM, *, odometry: str = "visual", book: ExperienceTruth | None = None,
-        recorder: RunRecorder | None = None, progress: bool = True) -> Run:
+        recorder: RunRecorder | None = None, progress: bool = True,
+        on_frame: Callable[[Frame, Estimate, NeuroSLAM], None] | None = None) -> Run:
     """NeuroSLAM over every frame of ``stream``; the run's history.
 
     Args:
@@ -320,6 +323,8 @@ def run(stream: FrameStream, slam: NeuroSLAM, *, odometry: str = "visual", book:
         book: the loaded maps' truth (:func:`load_sessions`), or None for a first session.
         recorder: a :class:`~neuroslam.lab.recording.RunRecorder` to log each frame to, or None.
         progress: show a progress bar (tqdm) in the stream's unit.
+        on_frame: ``on_frame(frame, estimate, slam)`` after each frame's step, for what the history does not
+            keep (a measurement's own bookkeeping); its time counts in ``elapsed``, not in ``slam_seconds``.
 
     Ctrl-C stops the run after the frame in progress: the history keeps the frames done and
     :attr:`Run.interrupted` is set.
@@ -353,6 +358,8 @@ def run(stream: FrameStream, slam: NeuroSLAM, *, odometry: str = "visual", book:
             self_motion.append(slam.odometry_pose)
             if recorder is not None:
                 recorder.log_frame(frame.time, frame.image, slam, estimate, None if truth is None else truth.pose)
+            if on_frame is not None:
+                on_frame(frame, estimate, slam)
             if bar is not None:
                 bar.update(min(int(frame.progress), bar.total) - bar.n)
     except KeyboardInterrupt:

@@ -146,3 +146,14 @@ def test_a_run_continues_a_loaded_map_and_reports_its_merges(tmp_path):
     assert metrics["frames"] == 30 and "merges" in metrics and "false_merges" in metrics
     size = first.slam.experience_map.size
     assert second.book.of(np.arange(size))[1].tolist() == [-1] * size
+
+
+def test_on_frame_sees_every_frame_after_its_step():
+    seen = []
+
+    def keep(frame, estimate, slam):
+        seen.append((frame.index, estimate.timestamp, slam.frames))
+
+    result = run(ListStream(POSES[:12]), NeuroSLAM("sim"), progress=False, on_frame=keep)
+    assert seen == [(index, index / RATE, index + 1) for index in range(12)]
+    np.testing.assert_array_equal(result.times, np.arange(12) / RATE)

@@ -1,0 +1,157 @@
+"""Which cue observes each degree of freedom of a frame's motion, and the scales carried between cues.
+
+:class:`CueSelectionMixin` is the part of :class:`~neuroslam.vision.odometry.VisualOdometry` that takes each
+degree of freedom from the cue that observes it on this frame (the floor, the ceiling, the whole image's
+alignment, the column profile), carries the metric scale from where the floor last gave it (eq. S1), holds
+the last speed for a bounded time where nothing observes the distance, and marks the frame blind in what
+nothing observed (:class:`~neuroslam.vision.motion.Observed`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .motion import Observed
+from .profiles import profile_turn
+
+__all__ = ["CueSelectionMixin"]
+
+_NOMINAL_CEILING = 2.0  # m above the camera: where the ceiling's first alignment starts (a 2.5 m room)
+# where the floor sees the distance, the ceiling's height is learnt on every fifth frame: it changes over
+# seconds, not frames (twice a second at 10 Hz: 20 readings within scale_memory), at a fifth of the cost
+_CEILING_EVERY = 5
+# the floor's information on the distance (in the prior's weights) from which it outweighs the prior
+_FIRM_FLOOR = 1.0
+# a cue's scale is carried only where its readings were proportional to the floor's distances within this
+# (the relative RMS misfit of eq. S1, which holds the floor's own frame-to-frame error too): a ceiling is a
+# plane, facades and open sky are not. Measured: a flat ceiling over textured or sparsely tiled floors in
+# the synthetic scenes of tests/scenes.py 0.01–0.26, the building's ceilings over its corridors 0.16–0.42,
+# urban's facades and sky 0.43–0.69 (10th–90th percentiles)
+_SCALE_MISFIT = 0.2
+
+
+def _scale(sums: np.ndarray) -> float:
+    """Eq. S1's scale from its running sums (Σ d c, Σ c², Σ d²), or 0 where there is none or the readings c
+    were not proportional to the distances d: relative misfit sqrt(1 - (Σ d c)² / (Σ c² Σ d²)) above
+    :data:`_SCALE_MISFIT`."""
+    products, readings, distances = sums
+    if readings <= 0 or distances <= 0:
+        return 0.0
+    misfit = math.sqrt(max(0.0, 1.0 - products**2 / (readings * distances)))
+    return products / readings if misfit <= _SCALE_MISFIT else 0.0
+
+
+class CueSelectionMixin:
+    """The cue selection of the visual odometry (see the module); mixed into
+    :class:`~neuroslam.vision.odometry.VisualOdometry`, whose state it reads and updates."""
+
+    def _observed_motion(self, floor_distance: float, floor_yaw: float, aligned_yaw: float, image_sees_yaw: bool,
+                         pitch_seen: bool, dt: float) -> tuple[float, float, Observed]:
+        """Distance and yaw change of a frame off a transition, each from the cue that observes it.
+
+        - Yaw: the floor's (eqs. G3–G4) where the floor has marks (it sees the distance: a floor showing only
+          lines along the path, or only its edges against the walls, sees the yaw through them, and walls
+          standing close take part in it with a bias, see :mod:`.ground_motion`) and the whole image's yaw
+          (eq. R2) agrees with it within ``floor_yaw_tolerance`` (else the floor's solution, distance and yaw,
+          is a wrong minimum and is not used); else the whole image's (eq. R2: walls, ceiling) where it sees
+          the yaw; else the shift of the whole image's column profile (NeuroSLAM eqs. 27–29) where one shift stands out
+          (:func:`profile_turn`: eq. R2 weighs the information per pixel, and a thin band of distant structure
+          along an open horizon has too little of it, yet fits one shift only); else none.
+        - Distance, in this order: the floor's where it sees it (with ``floor_half_width``, eq. G5's lane beside
+          the path; where the lane does not see it firmly, the whole floor's, whose walls' feet lie on the floor
+          plane, its distance alone: :meth:`~.ground_motion.GroundMotion.whole_floor_distance`); the ceiling's
+          (eqs. G1–G3 on the image above the horizon, a plane H above the camera: it gives d / H) times the
+          ceiling height the floor last gave it; the expansion e of the upper image (walls, ceiling, eq. R1)
+          times the scale the floor last gave it, where the image sees the motion; else held.
+
+        The scale of each, H or s (metres of travel per unit: the ceiling's height above the camera, or about
+        the mean depth of what is seen above the horizon), is the least-squares ratio of the floor's distances
+        d to that cue's reading c over the frames where both see it, each weighted by exp(-age / scale_memory):
+
+            s = sum_k lambda_k d_k c_k / sum_k lambda_k c_k^2                                        (S1)
+
+        A ceiling's height is the same along a level, and usually from level to level: it carries the scale
+        over a blank floor; the upper image's depth changes with where the robot is, so the expansion is the
+        last resort before holding. Where nothing observes the distance, the last observed speed is held for
+        ``blind_hold`` seconds, then it is 0; where nothing observes the yaw, there is no turn; the frame is
+        marked blind in it (:class:`Observed`). The floor's prior for the next frame (eq. G3's (d0, w0))
+        becomes what was taken, so a blank floor does not carry a stale motion on.
+        """
+        config, ground, alignment = self.config, self._ground, self._alignment
+        limit_distance, limit_yaw = config.max_speed * dt, config.max_yaw_rate * dt
+        # a floor solution whose yaw the whole image contradicts is a wrong minimum of eq. G3: neither its yaw
+        # nor its distance is taken (odometry.floor_yaw_tolerance)
+        floor_sees = ground.sees_distance and (
+            not image_sees_yaw or abs(floor_yaw - aligned_yaw) <= config.floor_yaw_tolerance)
+        if floor_sees:
+            yaw, yaw_source = floor_yaw, "floor"
+        elif image_sees_yaw:  # the yaw again with the walls' depths apart (one expansion per quadrant)
+            quadrant_yaw, information = alignment.quadrant_yaw()
+            if information / max(alignment.pixels, 1) < config.min_image_information:
+                quadrant_yaw = aligned_yaw
+            yaw, yaw_source = float(np.clip(quadrant_yaw, -limit_yaw, limit_yaw)), "image"
+        else:  # the column profile's shift (NeuroSLAM eqs. 27–29), where one shift stands out
+            shift, stands_out = profile_turn(*self._rotation_profiles, self._max_columns)
+            if stands_out:
+                yaw = float(np.clip(config.yaw_scale * shift * self._angle_per_sample, -limit_yaw, limit_yaw))
+                yaw_source = "profile"
+            else:
+                yaw, yaw_source = None, ""
+        ceiling, memory = self._ceiling, math.exp(-dt / config.scale_memory)
+        height = _scale(self._ceiling_sums)
+        # the floor sees the distance firmly where its information outweighs the prior's (1); between
+        # floor_min_information and that, a ceiling or upper image whose scale holds is read instead
+        firm = floor_sees and ground.information[0] >= _FIRM_FLOOR
+        if not firm and ground.half_width > 0 and self._ceiling_previous is not None:
+            # the lane (eq. G5) does not see the distance firmly: the whole floor's distance, the walls' feet
+            # beside the lane included (its yaw, which the walls bias, is not taken)
+            whole_distance, whole_information = ground.whole_floor_distance(
+                self._ceiling_previous, ground.pyramid, self._held_speed * dt, yaw or 0.0)
+            if whole_information >= _FIRM_FLOOR:
+                firm, floor_distance = True, float(np.clip(whole_distance, -limit_distance, limit_distance))
+        distance, distance_source = None, ""
+        if firm:
+            distance, distance_source = floor_distance, "floor"
+            # the scales' memory runs while the floor sees (a blank stretch keeps the last scales as they were);
+            # they are learnt on every fifth such frame (_CEILING_EVERY)
+            self._scale_sums *= memory
+            self._ceiling_sums *= memory
+            self._ceiling_countdown -= 1
+            if floor_distance > 0 and self._ceiling_countdown <= 0:
+                self._ceiling_countdown = _CEILING_EVERY
+                reading, _ = ceiling.align(self._ceiling_previous, ground.pyramid,
+                                           (floor_distance / (height or _NOMINAL_CEILING), yaw or 0.0))
+                if ceiling.sees_distance and reading > 0:
+                    self._ceiling_sums += (floor_distance * reading, reading**2, floor_distance**2)
+                expansion, expansion_information = alignment.upper_expansion() if image_sees_yaw else (0.0, 0.0)
+                if expansion > 0 and expansion_information > 0:
+                    self._scale_sums += (floor_distance * expansion, expansion**2, floor_distance**2)
+        else:
+            previous_distance = self._held_speed * dt
+            if height > 0:  # from the yaw taken above (the floor's own may be the wrong minimum just refused)
+                reading, ceiling_yaw = ceiling.align(self._ceiling_previous, ground.pyramid,
+                                                     (previous_distance / height, yaw or 0.0))
+                if (ceiling.information[0] / height**2 >= ceiling.min_information and reading >= 0
+                        and (yaw is None or abs(ceiling_yaw - yaw) <= config.floor_yaw_tolerance)):
+                    distance, distance_source = float(np.clip(height * reading, 0.0, limit_distance)), "ceiling"
+            scale = _scale(self._scale_sums)
+            if distance is None and image_sees_yaw and scale > 0:
+                expansion, expansion_information = alignment.upper_expansion()
+                if expansion_information / scale**2 >= ground.min_information * ground.distance_weight:
+                    distance, distance_source = float(np.clip(scale * expansion, 0.0, limit_distance)), "image"
+            if distance is None and floor_sees:
+                distance, distance_source = floor_distance, "floor"
+        if distance is not None:
+            self._held_speed, self._blind_for, self._unobserved = distance / dt, 0.0, 0
+        else:  # nothing sees the distance: the last speed, for blind_hold seconds
+            self._blind_for += dt
+            held = self._blind_for <= config.blind_hold
+            distance, distance_source = (self._held_speed * dt, "held") if held else (0.0, "none")
+            self._unobserved += 1
+        if yaw is None:  # nothing sees the yaw: no turn (a held turn rate measured 1.3° a frame off)
+            yaw, yaw_source = 0.0, "none"
+        if distance_source != "floor" or yaw_source != "floor":
+            ground.motion = np.array([distance, yaw])
+        return distance, yaw, Observed(distance_source, yaw_source, "image" if pitch_seen else "held")

@@ -14,6 +14,8 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from .geometry import compose
+
 __all__ = ["confirm_place"]
 
 
@@ -88,8 +90,8 @@ def confirm_place(
     hypotheses, within = hypotheses[considered], ((near <= radius) & (rise <= height_radius))[considered]
     if not within.any():
         return -1
-    rotation = map_poses[hypotheses, 3] + relative_yaw - now[3]  # odometry frame → map frame, per hypothesis
-    cos, sin = np.cos(rotation), np.sin(rotation)
+    # per hypothesis, the odometry's frame in the map: the hypothesis's place, turned by the view's relative yaw
+    frames = np.column_stack([map_poses[hypotheses, :3], map_poses[hypotheses, 3] + relative_yaw - now[3]])
     support = np.zeros(len(hypotheses), dtype=int)
     misfit = np.zeros(len(hypotheses))  # m, summed over the agreeing frames: the distance to the nearest agreeing place
     if window_alternatives is None:
@@ -100,8 +102,7 @@ def confirm_place(
         if len(places) == 0:
             continue
         dx, dy, dz = pose[:3] - now[:3]
-        mapped = np.stack([map_poses[hypotheses, 0] + cos * dx - sin * dy,
-                           map_poses[hypotheses, 1] + sin * dx + cos * dy, map_poses[hypotheses, 2] + dz], axis=1)
+        mapped = compose(frames, np.array([dx, dy, dz, 0.0]))[:, :3]
         gaps = np.linalg.norm(mapped[:, None, :2] - map_poses[None, places, :2], axis=2)
         reach = gaps.min(axis=0) <= radius  # where this frame could be
         extent = np.ptp(map_poses[places[reach], :2], axis=0) if reach.any() else np.zeros(2)

@@ -276,11 +276,10 @@ class FolderStream:
             return Wheels(0.0, 0.0, float(x), float(y), float(yaw))
         dt = float(self.times[index] - self.times[index - 1])
         dx, dy = self.wheels[index, :2] - self.wheels[index - 1, :2]
-        heading = self.wheels[index - 1, 2] + wrap(float(yaw - self.wheels[index - 1, 2])) / 2
+        turn = wrap(float(yaw - self.wheels[index - 1, 2]))
+        heading = self.wheels[index - 1, 2] + turn / 2
         distance = math.copysign(math.hypot(dx, dy), dx * math.cos(heading) + dy * math.sin(heading))
-        return Wheels(distance / dt if dt > 0 else 0.0,
-                      wrap(float(yaw - self.wheels[index - 1, 2])) / dt if dt > 0 else 0.0, float(x), float(y),
-                      float(yaw))
+        return Wheels(distance / dt if dt > 0 else 0.0, turn / dt if dt > 0 else 0.0, float(x), float(y), float(yaw))
 
     def describe(self) -> dict[str, Any]:
         return {"world": self.description.world or self.folder.resolve().name, "route": self.description.route}

@@ -263,12 +263,14 @@ class Run:
         poses, levels = self.book.of(np.arange(themap.size))
         self.slam.save(out / MAP_FILE, extra={"experience_truth": poses, "experience_levels": levels},
                        metadata=self.stream.map_metadata())
-        (out / "metrics.json").write_text(json.dumps(self.metrics(), indent=2) + "\n")
-        self.plot_report(out / "report.png")
+        metrics = self.metrics()  # once: the figure's headline reads the same numbers
+        (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+        self.plot_report(out / "report.png", metrics=metrics)
         return [*written, out / "experiences.tum", out / MAP_FILE, out / "metrics.json", out / "report.png"]
 
-    def plot_report(self, path: str | Path | None = None):
-        """The run at a glance (:func:`~neuroslam.lab.plots.plot_report`); returns ``(figure, axes)``."""
+    def plot_report(self, path: str | Path | None = None, *, metrics: dict[str, Any] | None = None):
+        """The run at a glance (:func:`~neuroslam.lab.plots.plot_report`); returns ``(figure, axes)``.
+        ``metrics``: :meth:`metrics` if the caller has it already (it is not computed again)."""
         from .plots import plot_report
 
         themap = self.slam.experience_map
@@ -276,13 +278,14 @@ class Run:
                            experiences=themap.poses,
                            experience_frames=np.searchsorted(self.times, themap.creation_times),
                            links=themap.links, template_ids=self.active[:, 0], experience_ids=self.active[:, 1],
-                           times=self.times, title=self.title, headline=self.headline(),
+                           times=self.times, title=self.title, headline=self.headline(metrics),
                            closure_frames=np.array([frame for frame, _, _ in self.closures], dtype=int),
                            true_levels=self.true_levels, path=path)
 
-    def headline(self) -> str:
-        """The run's headline numbers in one line (the report figure's subtitle)."""
-        metrics = self.metrics()
+    def headline(self, metrics: dict[str, Any] | None = None) -> str:
+        """The run's headline numbers in one line (the report figure's subtitle), from ``metrics`` (default:
+        :meth:`metrics`)."""
+        metrics = self.metrics() if metrics is None else metrics
 
         def metres(value) -> str:
             return "n/a" if value is None else f"{value:.2f} m"

@@ -1,6 +1,6 @@
 """The glue: where the library meets the simulator, files, figures and people.
 
-The library (every other module of :mod:`neuroslam`) needs numpy and scipy only; the modules here may
+The library (every other module of :mod:`neuroslam`) needs numpy, scipy, OpenCV and numba only; the modules here may
 import the MuJoCo testbed (:mod:`sim`), gymnasium, rerun, Ray, matplotlib and tqdm:
 
 - :mod:`~neuroslam.lab.cli`: the ``neuroslam`` command (drive, run, record, sweep, nav, ...);

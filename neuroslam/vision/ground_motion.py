@@ -93,8 +93,10 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
-from scipy.ndimage import gaussian_filter
+
+from .kernels import ground_align, sample_bilinear
 
 __all__ = ["GroundMotion", "blurred_with_gradients", "sample_bilinear"]
 
@@ -104,27 +106,33 @@ _LOST_SUPPORT = 0.8  # below this share of floor pixels still in view, the solut
 
 
 def blurred_with_gradients(image: np.ndarray, smoothing: float) -> np.ndarray:
-    """(3, rows, columns) float32: the image blurred by a Gaussian of ``smoothing`` pixels, and its
-    horizontal and vertical central-difference gradients."""
-    blurred = gaussian_filter(np.asarray(image, dtype=np.float32), smoothing)
-    gradient_v, gradient_u = np.gradient(blurred)
-    return np.stack([blurred, gradient_u, gradient_v])
-
-
-def sample_bilinear(stack: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Bilinear samples of every channel of ``stack`` (channels, rows, columns) at pixel positions (u, v)
-    (column, row), clamped to the image; returns (channels, N)."""
-    channels, rows, columns = stack.shape
-    u = np.clip(u, 0, columns - 1.001)
-    v = np.clip(v, 0, rows - 1.001)
-    u0, v0 = u.astype(np.intp), v.astype(np.intp)
-    fu, fv = u - u0, v - v0
-    flat = stack.reshape(channels, -1)
-    corner = v0 * columns + u0
-    top_left, top_right = flat[:, corner], flat[:, corner + 1]
-    bottom_left, bottom_right = flat[:, corner + columns], flat[:, corner + columns + 1]
-    top = top_left + fu * (top_right - top_left)
-    return top + fv * (bottom_left + fu * (bottom_right - bottom_left) - top)
+    """(3, rows, columns) float32: the image blurred by a Gaussian of ``smoothing`` pixels (truncated at 4
+    standard deviations, mirrored at the borders), and its horizontal and vertical central-difference
+    gradients (one-sided at the borders)."""
+    image = np.ascontiguousarray(image, dtype=np.float32)
+    stack = np.empty((3, *image.shape), dtype=np.float32)
+    if smoothing > 0:
+        radius = int(4 * smoothing + 0.5)
+        cv2.GaussianBlur(image, (2 * radius + 1, 2 * radius + 1), smoothing, dst=stack[0], sigmaY=smoothing,
+                         borderType=cv2.BORDER_REFLECT)
+    else:
+        stack[0] = image
+    blurred, gradient_u, gradient_v = stack
+    if image.shape[1] > 1:
+        np.subtract(blurred[:, 2:], blurred[:, :-2], out=gradient_u[:, 1:-1])
+        gradient_u[:, 1:-1] *= 0.5
+        gradient_u[:, 0] = blurred[:, 1] - blurred[:, 0]
+        gradient_u[:, -1] = blurred[:, -1] - blurred[:, -2]
+    else:
+        gradient_u[:] = 0
+    if image.shape[0] > 1:
+        np.subtract(blurred[2:], blurred[:-2], out=gradient_v[1:-1])
+        gradient_v[1:-1] *= 0.5
+        gradient_v[0] = blurred[1] - blurred[0]
+        gradient_v[-1] = blurred[-1] - blurred[-2]
+    else:
+        gradient_v[:] = 0
+    return stack
 
 
 class GroundMotion:
@@ -261,8 +269,9 @@ class GroundMotion:
         images = []
         for level in range(self.levels - 1, -1, -1):
             factor = 2**level
-            rows, columns = (full.shape[0] // factor) * factor, (full.shape[1] // factor) * factor
-            reduced = full[:rows, :columns].reshape(rows // factor, factor, columns // factor, factor).mean(axis=(1, 3))
+            rows, columns = full.shape[0] // factor, full.shape[1] // factor
+            reduced = full if factor == 1 else cv2.resize(full[: rows * factor, : columns * factor], (columns, rows),
+                                                          interpolation=cv2.INTER_AREA)
             images.append(blurred_with_gradients(reduced, self.smoothing))
         return images
 
@@ -351,73 +360,25 @@ class GroundMotion:
 
     def _align(self, old: np.ndarray, new: np.ndarray, distance: float, turn: float, prior: np.ndarray, *,
                tolerance: float = 1.0, near_only: bool = False, whole: bool = False) -> tuple[float, float]:
-        """Gauss–Newton on eq. G3 at one resolution, until an update is below ``tolerance`` × (0.1 mm, 0.01 mrad).
+        """Gauss–Newton on eq. G3 at one resolution, until an update is below ``tolerance`` × (0.1 mm, 0.01 mrad)
+        or ``iterations`` have run (:func:`~.kernels.ground_align`, one compiled pass over the pixels each).
 
         With ``near_only``, eq. G4: the yaw alone over the near floor, the distance held; returns the yaw and
         the near floor's information on it (Σ w J_w² at the last iteration) instead. With ``whole``, over the
         whole floor, beyond eq. G5's lane too (:meth:`whole_floor_distance`).
         """
         focal, centre_u, centre_v, indices, ground, flow = self._floor(new.shape[1:], near_only, whole=whole)
-        rows, columns = old.shape[1:]
         target = new[0].ravel()[indices]
-        qx, qy = ground
-        h, a = self._height, self.camera_forward
-        prior_distance, prior_turn = float(prior[0]), float(prior[1])
         weight_distance = (self.robust_scale / _PRIOR_DISTANCE) ** 2
         weight_turn = (self.robust_scale / _PRIOR_TURN) ** 2
-        limit_u, limit_v = columns - 1.001, rows - 1.001
-        for _ in range(self.iterations):
-            c, s = math.cos(turn), math.sin(turn)
-            ch, sh = math.cos(turn / 2), math.sin(turn / 2)
-            px = distance * ch + c * qx - s * qy  # eq. G2
-            py = distance * sh + s * qx + c * qy
-            ahead = px - a
-            visible = ahead > 0.2
-            inverse = 1.0 / np.maximum(ahead, 0.2)
-            u = centre_u - focal * py * inverse  # eq. G1
-            v = centre_v + focal * h * inverse
-            visible &= (u >= 0) & (u <= limit_u) & (v >= 0) & (v <= limit_v)
-            intensity, gradient_u, gradient_v = sample_bilinear(old, u, v)
-            residual = intensity - target
-            # chain rule through eq. G1 and G2
-            d_py = -focal * gradient_u * inverse
-            d_px = -(d_py * py + focal * h * gradient_v * inverse) * inverse
-            jacobian_turn = d_px * (-distance / 2 * sh - s * qx - c * qy) + d_py * (distance / 2 * ch + c * qx - s * qy)
-            size = np.abs(residual)
-            weight = self.robust_scale / np.maximum(size, self.robust_scale)  # Huber: 1 inside, scale / |r| outside
-            weight *= visible
-            if near_only:  # eq. G4: the yaw alone (the support stays the whole floor's, eq. G3's)
-                wt = weight * jacobian_turn
-                information = float(wt @ jacobian_turn)
-                delta_turn = -(float(wt @ residual) + weight_turn * (turn - prior_turn)) / (information + weight_turn)
-                turn += delta_turn
-                if abs(delta_turn) < 1e-5 * tolerance:
-                    break
-                continue
-            jacobian_distance = d_px * ch + d_py * sh
-            wd, wt = weight * jacobian_distance, weight * jacobian_turn
-            a11, a12, a22 = float(wd @ jacobian_distance), float(wd @ jacobian_turn), float(wt @ jacobian_turn)
-            seen = a11
-            if self._crosswise > 0:  # eq. G6: the pixels whose gradient runs across their image motion
-                squared = jacobian_distance * jacobian_distance
-                across = squared >= self._crosswise * (gradient_u * gradient_u + gradient_v * gradient_v) * flow
-                seen = float(weight[across] @ squared[across])
-            self.information = np.array([seen / weight_distance, a22 / weight_turn])
-            data_distance = float(wd @ residual)
-            if seen < self.min_information * weight_distance:  # the floor does not see the distance: the prior's
-                a11 = a12 = data_distance = 0.0
-            prior_weight = weight_distance * self.distance_certainty
-            b1 = data_distance + prior_weight * (distance - prior_distance)
-            b2 = float(wt @ residual) + weight_turn * (turn - prior_turn)
-            n11, n22 = a11 + prior_weight, a22 + weight_turn
-            determinant = n11 * n22 - a12 * a12  # positive: the prior keeps the 2 x 2 system regular
-            delta_distance = -(n22 * b1 - a12 * b2) / determinant
-            delta_turn = -(n11 * b2 - a12 * b1) / determinant
-            distance += delta_distance
-            turn += delta_turn
-            self.support = float(visible.mean())
-            if abs(delta_distance) < 1e-4 * tolerance and abs(delta_turn) < 1e-5 * tolerance:
-                break
+        distance, turn, information_distance, information_turn, support, near_information, _ = ground_align(
+            old, target, ground[0], ground[1], flow, focal, centre_u, centre_v, self._height, self.camera_forward,
+            float(distance), float(turn), float(prior[0]), float(prior[1]), weight_distance, weight_turn,
+            weight_distance * self.distance_certainty, self.min_information, self._crosswise, self.robust_scale,
+            self.iterations, tolerance, near_only)
         if near_only:
-            return turn, information
+            return turn, near_information
+        if information_distance >= 0:  # an iteration ran
+            self.information = np.array([information_distance, information_turn])
+            self.support = support
         return distance, turn

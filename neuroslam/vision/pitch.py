@@ -61,7 +61,7 @@ import math
 
 import numpy as np
 
-from .ground_motion import sample_bilinear
+from .kernels import rotation_cost, rotation_normal, rotation_solve
 
 __all__ = ["LevelTransitions", "RotationAlignment"]
 
@@ -95,10 +95,17 @@ class RotationAlignment:
         self._last: tuple = (None, None, np.zeros(3), False)  # the last step's images, solution, and success
         self._pixels: dict[tuple[int, int], tuple] = {}
 
-    def _grid(self, shape: tuple[int, int]) -> tuple:
-        """Per image size: focal length, the region's pixels (flat indices) and their centred coordinates."""
-        cached = self._pixels.get(shape)
+    def _grid(self, shape: tuple[int, int], upper: bool = False) -> tuple:
+        """Per image size: focal length, the region's pixels (flat indices), their centred coordinates and
+        quadrants; with ``upper``, those above the image centre alone."""
+        cached = self._pixels.get((shape, upper))
         if cached is not None:
+            return cached
+        if upper:
+            focal, indices, x, y, quadrants = self._grid(shape)
+            above = y < 0
+            cached = (focal, indices[above], x[above], y[above], quadrants[above])
+            self._pixels[(shape, upper)] = cached
             return cached
         rows, columns = shape
         top, bottom, left, right = self.region
@@ -111,7 +118,7 @@ class RotationAlignment:
         y = (v - (rows / 2 - 0.5)).astype(np.float64)
         quadrants = (2 * (y >= 0) + (x >= 0)).astype(np.intp)  # 0 upper left, 1 upper right, 2, 3 lower
         cached = (focal, v * columns + u, x, y, quadrants)
-        self._pixels[shape] = cached
+        self._pixels[(shape, upper)] = cached
         return cached
 
     def step(self, previous: np.ndarray, current: np.ndarray, floor_yaw: float) -> tuple[float, float]:
@@ -140,7 +147,8 @@ class RotationAlignment:
     @property
     def pixels(self) -> int:
         """Pixels of the aligned region at the last image size (the information above is summed over them)."""
-        return len(next(iter(self._pixels.values()))[1]) if self._pixels else 0
+        last = self._last[1]
+        return 0 if last is None else len(self._grid(last.shape[1:])[1])
 
     def quadrant_yaw(self) -> tuple[float, float]:
         """The last frame's yaw solved again with one expansion per quadrant of the image (eq. R1 with e
@@ -170,100 +178,35 @@ class RotationAlignment:
         previous, current, parameters, found = self._last
         if not found:
             return 0.0, 0.0
-        focal, indices, x, y, labels = self._grid(current.shape[1:])
-        upper = y < 0
-        indices, x, y, labels = indices[upper], x[upper], y[upper], np.zeros(int(upper.sum()), dtype=np.intp)
+        focal, indices, x, y, _ = self._grid(current.shape[1:], upper=True)
         target = current[0].ravel()[indices]
+        labels = np.zeros(len(x), dtype=np.intp)
         single = parameters[:3].copy()
         information = 0.0
         for _ in range(2):
-            residual, visible, jacobian = self._linearise(previous, target, single, focal, x, y, labels)
-            weight = self.robust_scale / np.maximum(np.abs(residual), self.robust_scale) * visible
-            slope = jacobian[2]
-            information = float((weight * slope) @ slope)
+            normal, gradient = rotation_normal(previous, target, x, y, labels, single, focal, self.robust_scale)
+            information = float(normal[2, 2])
             if information <= _DAMPING:
                 return 0.0, 0.0
-            single[2] -= float((weight * slope) @ residual) / information
+            single[2] -= float(gradient[2]) / information
         return float(single[2]), information
 
     def _solve(self, previous: np.ndarray, current: np.ndarray, start: np.ndarray
                ) -> tuple[np.ndarray, float, np.ndarray]:
         """Gauss–Newton on eq. R2 from ``start`` = (yaw, pitch, e) or (yaw, pitch, e_1..e_4) with one
-        expansion per quadrant; returns the parameters, the mean Huber cost and the marginal information on
-        each parameter (at the last linearisation)."""
+        expansion per quadrant, at most ``iterations`` times (:func:`~.kernels.rotation_solve`, one compiled
+        pass over the pixels each); returns the parameters, the mean Huber cost and the marginal information
+        on each parameter (at the last linearisation)."""
         focal, indices, x, y, quadrants = self._grid(current.shape[1:])
         target = current[0].ravel()[indices]
-        parameters = np.array(start, dtype=float)
-        count = len(parameters) - 2
-        labels = quadrants if count == 4 else np.zeros(len(x), dtype=np.intp)
-        for _ in range(self.iterations):
-            residual, visible, jacobian = self._linearise(previous, target, parameters, focal, x, y, labels)
-            size = np.abs(residual)
-            weight = self.robust_scale / np.maximum(size, self.robust_scale) * visible
-            weighted = jacobian * weight
-            if count == 1:
-                normal = weighted @ jacobian.T
-                gradient = weighted @ residual
-            else:
-                # the expansions' Jacobian is one row split by quadrant: their blocks of the normal matrix
-                # are sums per quadrant (and no quadrant's touches another's)
-                normal = np.zeros((2 + count, 2 + count))
-                normal[:2, :2] = weighted[:2] @ jacobian[:2].T
-                for row in range(2):
-                    normal[row, 2:] = normal[2:, row] = np.bincount(labels, weighted[row] * jacobian[2],
-                                                                    minlength=count)
-                normal[2:, 2:] = np.diag(np.bincount(labels, weighted[2] * jacobian[2], minlength=count))
-                gradient = np.concatenate([weighted[:2] @ residual,
-                                           np.bincount(labels, weighted[2] * residual, minlength=count)])
-            normal += _DAMPING * np.eye(2 + count)
-            update = -np.linalg.solve(normal, gradient)
-            information = 1.0 / np.maximum(np.diag(np.linalg.inv(normal)), 1e-12)
-            parameters += update
-            if np.abs(update[:2]).max() < _TOLERANCE:  # the expansions are nuisance parameters
-                break
-        residual, visible, _ = self._linearise(previous, target, parameters, focal, x, y, labels, jacobian=False)
-        if visible.mean() < _MIN_SUPPORT:
+        start = np.array(start, dtype=float)
+        labels = quadrants if len(start) == 6 else np.zeros(len(x), dtype=np.intp)
+        parameters, information, _ = rotation_solve(previous, target, x, y, labels, start, focal, self.robust_scale,
+                                                    self.iterations, _DAMPING, _TOLERANCE)
+        cost, support = rotation_cost(previous, target, x, y, labels, parameters, focal, self.robust_scale)
+        if support < _MIN_SUPPORT:
             return parameters, math.inf, information
-        size = np.abs(residual[visible])
-        scale = self.robust_scale
-        cost = float(np.mean(np.where(size < scale, 0.5 * size**2, scale * (size - 0.5 * scale))))
         return parameters, cost, information
-
-    @staticmethod
-    def _linearise(previous: np.ndarray, target: np.ndarray, parameters: np.ndarray, focal: float, x: np.ndarray,
-                   y: np.ndarray, labels: np.ndarray, *, jacobian: bool = True
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        """Residuals of eq. R2, which pixels land inside the previous image, and the Jacobian (3, N): on yaw,
-        pitch and each pixel's own expansion (``labels``: its index among ``parameters[2:]``)."""
-        yaw, pitch = parameters[:2]
-        expansion = parameters[2:][labels]
-        cy, sy, cp, sp = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
-        # r' = R_yaw R_pitch (x, y, f): pitch about the camera's x axis (nose up sends the forward ray to -y),
-        # then yaw about its vertical axis (a left turn sends the forward ray to -x)
-        py, pz = cp * y - sp * focal, sp * y + cp * focal  # R_pitch r (x unchanged)
-        rx, rz = cy * x - sy * pz, sy * x + cy * pz  # R_yaw (x, py, pz)
-        inverse = 1.0 / rz
-        scale = (1.0 - expansion) * focal
-        u = scale * rx * inverse
-        v = scale * py * inverse
-        rows, columns = previous.shape[1:]
-        u_image, v_image = u + (columns / 2 - 0.5), v + (rows / 2 - 0.5)
-        visible = (u_image >= 0) & (u_image <= columns - 1.001) & (v_image >= 0) & (v_image <= rows - 1.001)
-        intensity, gradient_u, gradient_v = sample_bilinear(previous, u_image, v_image)
-        residual = intensity - target
-        if not jacobian:
-            return residual, visible, None
-        # derivatives of (rx, py, rz) and then of (u, v) = scale (rx, py) / rz
-        d_yaw = (-sy * x - cy * pz, np.zeros_like(x), cy * x - sy * pz)
-        d_pitch_y, d_pitch_z = -sp * y - cp * focal, cp * y - sp * focal
-        d_pitch = (-sy * d_pitch_z, d_pitch_y, cy * d_pitch_z)
-        rows_out = []
-        for d_rx, d_py, d_rz in (d_yaw, d_pitch):
-            du = scale * (d_rx - rx * inverse * d_rz) * inverse
-            dv = scale * (d_py - py * inverse * d_rz) * inverse
-            rows_out.append(gradient_u * du + gradient_v * dv)
-        rows_out.append(-(gradient_u * rx + gradient_v * py) * focal * inverse)  # d/de of the pixel's own e
-        return residual, visible, np.stack(rows_out)
 
 
 class LevelTransitions:

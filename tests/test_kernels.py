@@ -1,0 +1,172 @@
+"""The compiled alignment loops (neuroslam.vision.kernels) against the equations written out with numpy.
+
+Each reference below is eq. G1–G3 or eq. R1–R2 term by term over whole arrays, in float64; the compiled
+loops must give the same numbers to rounding (float32 images, float64 sums: 1e-9 relative on these sums).
+"""
+
+import math
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from neuroslam.vision.ground_motion import blurred_with_gradients
+from neuroslam.vision.kernels import ground_align, rotation_cost, rotation_normal, rotation_solve, sample_bilinear
+
+FOCAL = 80 / math.tan(math.radians(40))
+
+
+def _stack(seed: int, shape=(120, 160)) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return blurred_with_gradients(ndimage.gaussian_filter(rng.random(shape), 2.0).astype(np.float32), 1.0)
+
+
+def _bilinear(stack, u, v):
+    """Bilinear sampling as scipy's map_coordinates (order 1) does it, after the kernels' clamp."""
+    rows, columns = stack.shape[1:]
+    u, v = np.clip(u, 0, columns - 1.001), np.clip(v, 0, rows - 1.001)
+    return np.stack([ndimage.map_coordinates(channel.astype(np.float64), [v, u], order=1) for channel in stack])
+
+
+def test_bilinear_samples_match_scipy():
+    stack = _stack(0)
+    rng = np.random.default_rng(1)
+    u, v = rng.uniform(-5, 165, 2000), rng.uniform(-5, 125, 2000)  # some outside: clamped
+    np.testing.assert_allclose(sample_bilinear(stack, u, v), _bilinear(stack, u, v), rtol=0, atol=2e-6)
+
+
+def _ground_normal(old, target, qx, qy, focal, cu, cv, height, forward, distance, turn, robust_scale):
+    """Eqs. G1–G3's data term at (distance, turn), with numpy: (a11, a12, a22, b1, b2, support)."""
+    c, s, ch, sh = math.cos(turn), math.sin(turn), math.cos(turn / 2), math.sin(turn / 2)
+    px, py = distance * ch + c * qx - s * qy, distance * sh + s * qx + c * qy  # eq. G2
+    ahead = px - forward
+    inverse = 1 / np.maximum(ahead, 0.2)
+    u, v = cu - focal * py * inverse, cv + focal * height * inverse  # eq. G1
+    rows, columns = old.shape[1:]
+    visible = (ahead > 0.2) & (u >= 0) & (u <= columns - 1.001) & (v >= 0) & (v <= rows - 1.001)
+    intensity, gu, gv = _bilinear(old, u, v)
+    residual = intensity - target
+    d_py = -focal * gu * inverse
+    d_px = -(d_py * py + focal * height * gv * inverse) * inverse
+    j_turn = d_px * (-distance / 2 * sh - s * qx - c * qy) + d_py * (distance / 2 * ch + c * qx - s * qy)
+    j_distance = d_px * ch + d_py * sh
+    weight = robust_scale / np.maximum(np.abs(residual), robust_scale) * visible
+    return (np.sum(weight * j_distance**2), np.sum(weight * j_distance * j_turn), np.sum(weight * j_turn**2),
+            np.sum(weight * j_distance * residual), np.sum(weight * j_turn * residual), visible.mean())
+
+
+@pytest.mark.parametrize(("distance", "turn"), [(0.0, 0.0), (0.08, 0.03), (-0.05, -0.06)])
+def test_one_floor_iteration_is_the_gauss_newton_step_of_eq_g3(distance, turn):
+    old, new = _stack(2), _stack(3)
+    v, u = np.mgrid[70:119, 1:159:2]
+    u, v = u.ravel().astype(float), v.ravel().astype(float)
+    cu, cv, height, forward = 79.5, 59.5, 0.5, 0.1
+    depth = height * FOCAL / (v - cv)
+    qx, qy = (depth + forward).astype(np.float32), (-(u - cu) * depth / FOCAL).astype(np.float32)
+    target = new[0][v.astype(int), u.astype(int)]
+    weight_distance, weight_turn, robust_scale = 6.25, 1.0, 0.05
+    prior = (0.02, -0.01)
+    result = ground_align(old, target, qx, qy, np.ones_like(qx), FOCAL, cu, cv, height, forward, distance, turn,
+                          prior[0], prior[1], weight_distance, weight_turn, weight_distance, 0.0, 0.0, robust_scale,
+                          1, 1.0, False)
+    a11, a12, a22, b1, b2, support = _ground_normal(old, target, qx.astype(float), qy.astype(float), FOCAL, cu, cv,
+                                                    height, forward, distance, turn, robust_scale)
+    normal = np.array([[a11 + weight_distance, a12], [a12, a22 + weight_turn]])
+    gradient = np.array([b1 + weight_distance * (distance - prior[0]), b2 + weight_turn * (turn - prior[1])])
+    expected = np.array([distance, turn]) - np.linalg.solve(normal, gradient)
+    np.testing.assert_allclose(result[:2], expected, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(result[2:5], [a11 / weight_distance, a22 / weight_turn, support], rtol=1e-6)
+    assert result[6] == 1
+
+
+def _rotation_residual(previous, target, x, y, parameters, labels):
+    """Eq. R1–R2's residuals and visibility with numpy."""
+    yaw, pitch = parameters[:2]
+    expansion = parameters[2:][labels]
+    cy, sy, cp, sp = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
+    py, pz = cp * y - sp * FOCAL, sp * y + cp * FOCAL
+    rx, rz = cy * x - sy * pz, sy * x + cy * pz
+    u = (1 - expansion) * FOCAL * rx / rz + 79.5
+    v = (1 - expansion) * FOCAL * py / rz + 59.5
+    visible = (u >= 0) & (u <= 158.999) & (v >= 0) & (v <= 118.999)
+    return _bilinear(previous, u, v)[0] - target, visible
+
+
+def _rotation_jacobian(previous, x, y, parameters, labels):
+    """Eq. R2's Jacobian on (yaw, pitch, e_0 … e_{K−1}): d (u, v) / d parameter of eq. R1 by the chain rule, times
+    the previous image's gradients sampled at (u, v)."""
+    yaw, pitch = parameters[:2]
+    expansion = parameters[2:][labels]
+    cy, sy, cp, sp = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
+    py, pz = cp * y - sp * FOCAL, sp * y + cp * FOCAL
+    rx, rz = cy * x - sy * pz, sy * x + cy * pz
+    scale = (1 - expansion) * FOCAL
+    _, gu, gv = _bilinear(previous, scale * rx / rz + 79.5, scale * py / rz + 59.5)
+    rows = []
+    d_pitch_z = cp * y - sp * FOCAL
+    for d_rx, d_py, d_rz in ((-sy * x - cy * pz, 0 * x, cy * x - sy * pz),
+                             (-sy * d_pitch_z, -sp * y - cp * FOCAL, cy * d_pitch_z)):
+        rows.append(gu * scale * (d_rx * rz - rx * d_rz) / rz**2 + gv * scale * (d_py * rz - py * d_rz) / rz**2)
+    j_expansion = -(gu * rx + gv * py) * FOCAL / rz
+    for k in range(len(parameters) - 2):
+        rows.append(np.where(labels == k, j_expansion, 0.0))
+    return np.array(rows)
+
+
+@pytest.mark.parametrize("count", [1, 4])
+def test_rotation_normal_equations_match_finite_differences(count):
+    """The Jacobian of eq. R2 in the kernel's normal equations against central differences of the residual."""
+    previous, current = _stack(4), _stack(5)
+    v, u = np.mgrid[24:96:2, 16:144:2]
+    x, y = u.ravel() - 79.5, v.ravel() - 59.5
+    labels = (2 * (y >= 0) + (x >= 0)).astype(np.intp) if count == 4 else np.zeros(len(x), dtype=np.intp)
+    target = current[0][v.ravel(), u.ravel()]
+    parameters = np.array([0.02, -0.01] + [0.01] * count)
+    normal, gradient = rotation_normal(previous, target, x, y, labels, parameters, FOCAL, 0.05)
+    residual, visible = _rotation_residual(previous, target, x, y, parameters, labels)
+    step = 1e-6
+    columns = []
+    for k in range(len(parameters)):
+        plus, minus = parameters.copy(), parameters.copy()
+        plus[k] += step
+        minus[k] -= step
+        columns.append((_rotation_residual(previous, target, x, y, plus, labels)[0]
+                        - _rotation_residual(previous, target, x, y, minus, labels)[0]) / (2 * step))
+    jacobian = np.array(columns)
+    weight = 0.05 / np.maximum(np.abs(residual), 0.05) * visible
+    # the numerical Jacobian differentiates the bilinear surface, the kernel uses the sampled gradient images:
+    # they agree to the images' second differences (a few per cent on this texture)
+    np.testing.assert_allclose(normal, (jacobian * weight) @ jacobian.T, rtol=0.05,
+                               atol=0.05 * np.abs(normal).max())
+    # the residual's gradient is a sum over uncorrelated images with cancellations: against the same chain rule
+    # in numpy (d (u, v) / d parameter times the sampled image gradients), to rounding
+    analytic = _rotation_jacobian(previous, x, y, parameters, labels)
+    np.testing.assert_allclose(normal, (analytic * weight) @ analytic.T, rtol=1e-6, atol=1e-9 * np.abs(normal).max())
+    np.testing.assert_allclose(gradient, (analytic * weight) @ residual, rtol=1e-6,
+                               atol=1e-9 * np.abs(gradient).max())
+    cost, support = rotation_cost(previous, target, x, y, labels, parameters, FOCAL, 0.05)
+    size = np.abs(residual[visible])
+    assert cost == pytest.approx(np.mean(np.where(size < 0.05, 0.5 * size**2, 0.05 * (size - 0.025))), rel=1e-6)
+    assert support == pytest.approx(visible.mean())
+
+
+def test_rotation_solve_recovers_a_pure_rotation():
+    """A frame rendered from the previous one by a known yaw and pitch (eq. R1 with e = 0) is aligned back to
+    them within 1e-4 rad, and the iterations stop at the cap."""
+    previous = _stack(6, (240, 320))[:, 60:180, 80:240].copy()
+    rows, columns = previous.shape[1:]
+    v, u = np.mgrid[0:rows, 0:columns]
+    x, y = (u - 79.5).ravel().astype(float), (v - 59.5).ravel().astype(float)
+    truth = np.array([0.03, -0.02, 0.0])
+    residual, _ = _rotation_residual(previous, np.zeros(len(x)), x, y, truth, np.zeros(len(x), dtype=np.intp))
+    current = blurred_with_gradients(residual.reshape(rows, columns).astype(np.float32), 0.0)
+    region = (np.abs(x) < 60) & (np.abs(y) < 36)
+    target = current[0].ravel()[region]
+    labels = np.zeros(int(region.sum()), dtype=np.intp)
+    parameters, information, done = rotation_solve(previous, target, x[region], y[region], labels, np.zeros(3),
+                                                   FOCAL, 0.05, 20, 1e-2, 1e-6)
+    np.testing.assert_allclose(parameters[:2], truth[:2], atol=1e-4)
+    assert np.all(information > 0)
+    _, _, capped = rotation_solve(previous, target, x[region], y[region], labels, np.zeros(3), FOCAL, 0.05, 2, 1e-2,
+                                  0.0)
+    assert capped == 2

@@ -1,7 +1,10 @@
 """The compiled alignment loops (neuroslam.vision.kernels) against the equations written out with numpy.
 
 Each reference below is eq. G1–G3 or eq. R1–R2 term by term over whole arrays, in float64; the compiled
-loops must give the same numbers to rounding (float32 images, float64 sums: 1e-9 relative on these sums).
+loops must give the same numbers to their rounding: they compute each pixel in float32 and sum a few thousand
+terms in float32 (reordered for the vector units), so their sums carry a relative error of about
+sqrt(N) × 6e-8 ≈ 3e-6 of the sum of the terms' magnitudes (1e-5 is allowed: cancelling terms make the sum
+smaller than that magnitude).
 """
 
 import math
@@ -74,8 +77,8 @@ def test_one_floor_iteration_is_the_gauss_newton_step_of_eq_g3(distance, turn):
     normal = np.array([[a11 + weight_distance, a12], [a12, a22 + weight_turn]])
     gradient = np.array([b1 + weight_distance * (distance - prior[0]), b2 + weight_turn * (turn - prior[1])])
     expected = np.array([distance, turn]) - np.linalg.solve(normal, gradient)
-    np.testing.assert_allclose(result[:2], expected, rtol=1e-6, atol=1e-9)
-    np.testing.assert_allclose(result[2:5], [a11 / weight_distance, a22 / weight_turn, support], rtol=1e-6)
+    np.testing.assert_allclose(result[:2], expected, rtol=1e-5, atol=1e-8)  # 1e-8 m, 1e-8 rad
+    np.testing.assert_allclose(result[2:5], [a11 / weight_distance, a22 / weight_turn, support], rtol=1e-5)
     assert result[6] == 1
 
 
@@ -141,12 +144,12 @@ def test_rotation_normal_equations_match_finite_differences(count):
     # the residual's gradient is a sum over uncorrelated images with cancellations: against the same chain rule
     # in numpy (d (u, v) / d parameter times the sampled image gradients), to rounding
     analytic = _rotation_jacobian(previous, x, y, parameters, labels)
-    np.testing.assert_allclose(normal, (analytic * weight) @ analytic.T, rtol=1e-6, atol=1e-9 * np.abs(normal).max())
-    np.testing.assert_allclose(gradient, (analytic * weight) @ residual, rtol=1e-6,
-                               atol=1e-9 * np.abs(gradient).max())
+    np.testing.assert_allclose(normal, (analytic * weight) @ analytic.T, rtol=1e-5, atol=1e-5 * np.abs(normal).max())
+    np.testing.assert_allclose(gradient, (analytic * weight) @ residual, rtol=1e-5,
+                               atol=1e-5 * np.abs(analytic * weight * residual).sum(axis=1).max())
     cost, support = rotation_cost(previous, target, x, y, labels, parameters, FOCAL, 0.05)
     size = np.abs(residual[visible])
-    assert cost == pytest.approx(np.mean(np.where(size < 0.05, 0.5 * size**2, 0.05 * (size - 0.025))), rel=1e-6)
+    assert cost == pytest.approx(np.mean(np.where(size < 0.05, 0.5 * size**2, 0.05 * (size - 0.025))), rel=1e-5)
     assert support == pytest.approx(visible.mean())
 
 

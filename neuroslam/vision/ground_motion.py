@@ -206,6 +206,8 @@ class GroundMotion:
         # multiples of the prior's weights (robust_scale / s_d)², (robust_scale / s_w)²
         self.information = np.zeros(2)
         self._previous: list[np.ndarray] | None = None
+        # Gauss–Newton iterations run so far, each one pass over the floor pixels of its level (for the cost)
+        self.passes = 0
         self._geometry: dict[tuple[int, int], tuple] = {}
 
     @property
@@ -371,11 +373,12 @@ class GroundMotion:
         target = new[0].ravel()[indices]
         weight_distance = (self.robust_scale / _PRIOR_DISTANCE) ** 2
         weight_turn = (self.robust_scale / _PRIOR_TURN) ** 2
-        distance, turn, information_distance, information_turn, support, near_information, _ = ground_align(
+        distance, turn, information_distance, information_turn, support, near_information, done = ground_align(
             old, target, ground[0], ground[1], flow, focal, centre_u, centre_v, self._height, self.camera_forward,
             float(distance), float(turn), float(prior[0]), float(prior[1]), weight_distance, weight_turn,
             weight_distance * self.distance_certainty, self.min_information, self._crosswise, self.robust_scale,
             self.iterations, tolerance, near_only)
+        self.passes += done
         if near_only:
             return turn, near_information
         if information_distance >= 0:  # an iteration ran

@@ -94,6 +94,8 @@ class RotationAlignment:
         self.information = np.zeros(3)
         self._last: tuple = (None, None, np.zeros(3), False)  # the last step's images, solution, and success
         self._pixels: dict[tuple[int, int], tuple] = {}
+        # passes over the region's pixels so far (Gauss–Newton iterations and cost evaluations), for the cost
+        self.passes = 0
 
     def _grid(self, shape: tuple[int, int], upper: bool = False) -> tuple:
         """Per image size: focal length, the region's pixels (flat indices), their centred coordinates and
@@ -114,8 +116,8 @@ class RotationAlignment:
                         int(left * columns): max(int(right * columns), int(left * columns) + 1): step]
         u, v = u.ravel(), v.ravel()
         focal = (columns / 2) / math.tan(self.horizontal_fov / 2)
-        x = (u - (columns / 2 - 0.5)).astype(np.float64)
-        y = (v - (rows / 2 - 0.5)).astype(np.float64)
+        x = (u - (columns / 2 - 0.5)).astype(np.float32)
+        y = (v - (rows / 2 - 0.5)).astype(np.float32)
         quadrants = (2 * (y >= 0) + (x >= 0)).astype(np.intp)  # 0 upper left, 1 upper right, 2, 3 lower
         cached = (focal, v * columns + u, x, y, quadrants)
         self._pixels[(shape, upper)] = cached
@@ -184,6 +186,7 @@ class RotationAlignment:
         single = parameters[:3].copy()
         information = 0.0
         for _ in range(2):
+            self.passes += 1
             normal, gradient = rotation_normal(previous, target, x, y, labels, single, focal, self.robust_scale)
             information = float(normal[2, 2])
             if information <= _DAMPING:
@@ -201,9 +204,10 @@ class RotationAlignment:
         target = current[0].ravel()[indices]
         start = np.array(start, dtype=float)
         labels = quadrants if len(start) == 6 else np.zeros(len(x), dtype=np.intp)
-        parameters, information, _ = rotation_solve(previous, target, x, y, labels, start, focal, self.robust_scale,
+        parameters, information, done = rotation_solve(previous, target, x, y, labels, start, focal, self.robust_scale,
                                                     self.iterations, _DAMPING, _TOLERANCE)
         cost, support = rotation_cost(previous, target, x, y, labels, parameters, focal, self.robust_scale)
+        self.passes += done + 1
         if support < _MIN_SUPPORT:
             return parameters, math.inf, information
         return parameters, cost, information

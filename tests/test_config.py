@@ -36,6 +36,8 @@ def test_presets_exist_and_differ():
     ({"odometry": {"manhattan_spread": 0.9}}, "odometry.manhattan_spread", "(0, pi/4)"),
     ({"odometry": {"manhattan_window": 1}}, "odometry.manhattan_window", "2 or more"),
     ({"odometry": {"manhattan_window": 5.0}}, "odometry.manhattan_window", "2 or more"),
+    ({"odometry": {"working_width": 16}}, "odometry.working_width", "from 32 to 4096"),
+    ({"odometry": {"working_width": 160.0}}, "odometry.working_width", "whole number of columns"),
     ({"odometry": {"manhattan_rate": 0}}, "odometry.manhattan_rate", "positive"),
     ({"odometry": {"manhattan_first_row": 1.0}}, "odometry.manhattan_first_row", "[0, 1)"),
     ({"odometry": {"manhattan_first_row": -0.1}}, "odometry.manhattan_first_row", "[0, 1)"),

@@ -166,7 +166,7 @@ def test_rotation_solve_recovers_a_pure_rotation():
     region = (np.abs(x) < 60) & (np.abs(y) < 36)
     target = current[0].ravel()[region]
     labels = np.zeros(int(region.sum()), dtype=np.intp)
-    parameters, information, done = rotation_solve(previous, target, x[region], y[region], labels, np.zeros(3),
+    parameters, information, _ = rotation_solve(previous, target, x[region], y[region], labels, np.zeros(3),
                                                    FOCAL, 0.05, 20, 1e-2, 1e-6)
     np.testing.assert_allclose(parameters[:2], truth[:2], atol=1e-4)
     assert np.all(information > 0)

@@ -180,3 +180,21 @@ def test_a_floor_solution_the_whole_image_contradicts_is_not_taken(monkeypatch):
     assert motions[1:, 0].sum() == pytest.approx(distance.sum(), rel=0.05)
     others = [item for k, item in enumerate(observed) if k and k not in wrong]
     assert sum(item.yaw == "floor" for item in others) >= 0.95 * len(others)
+
+
+def test_a_camera_of_twice_the_resolution_reads_the_same_motion():
+    """odometry.working_width: a 320 × 240 camera whose pixels are each 2 × 2 of the 160 × 120 one's (the same
+    optics, the same scene) is aligned on the same 160 × 120 image, so it reads the same motion to the last
+    bit; aligned at full resolution (working_width 0) it reads the same path within the odometry's accuracy."""
+    scene = Scene(**HALL)
+    path = TURN[:60]
+    reference, _ = drive(scene, path)
+    doubled, full = VisualOdometry(), VisualOdometry(VisualOdometryConfig(working_width=0))
+    for k, (x, y, yaw) in enumerate(path):
+        image = np.kron(scene.render(x, y, yaw), np.ones((2, 2), dtype=np.float32))
+        dt = 0.1 if k else 0.0
+        motion, at_full = doubled.step(image, dt), full.step(image, dt)
+        assert (motion.forward_speed * 0.1, motion.yaw_rate * 0.1) == tuple(reference[k])
+        if k:
+            assert at_full.forward_speed * 0.1 == pytest.approx(reference[k, 0], abs=0.01)
+            assert at_full.yaw_rate * 0.1 == pytest.approx(reference[k, 1], abs=0.005)

@@ -37,3 +37,15 @@ def test_patch_normalisation_gives_local_zero_mean_and_unit_spread():
     assert abs(normalised[5:-5, 5:-5].mean()) < 0.1
     assert normalised[5:-5, 5:-5].std() == pytest.approx(1.0, abs=0.25)
     assert np.all(patch_normalise(np.full((10, 10), 0.5, np.float32), 5) == 0)  # flat: zero, not noise
+
+
+def test_reduce_to_width_averages_blocks_and_leaves_narrow_images_alone():
+    from neuroslam.vision.preprocessing import reduce_to_width
+
+    image = np.random.default_rng(3).random((240, 320)).astype(np.float32)
+    reduced = reduce_to_width(image, 160)
+    assert reduced.shape == (120, 160)
+    np.testing.assert_allclose(reduced, image.reshape(120, 2, 160, 2).mean(axis=(1, 3)), atol=1e-6)
+    assert reduce_to_width(image, 320) is image and reduce_to_width(image, 0) is image
+    assert reduce_to_width(np.zeros((480, 640), np.float32), 160).shape == (120, 160)
+    assert reduce_to_width(np.zeros((90, 200), np.float32), 160).shape == (72, 160)

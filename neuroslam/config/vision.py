@@ -140,6 +140,11 @@ class VisualOdometryConfig:
             a degree a frame, which a slow correction removes; a fast one would pass on the per-frame scatter.
         manhattan_first_row: eq. M1's plane pixels start this far from the image centre (below it for the floor,
             above it for the ceiling), as a fraction of half the image height.
+        working_width: columns; the direct alignments (eqs. G1–G4, R1–R2, M1) run on the grey image
+            area-averaged to this width (rows in proportion) where it is wider, so their cost and their
+            per-pixel settings (the blur, the pyramid's two levels, the columns sampled) stay those of the
+            testbed's 160-pixel camera at any resolution (docs/speed.md); the profiles of NeuroSLAM eqs. 27–32
+            resample the full image to ``profile_width`` as before. 0 aligns at full resolution.
     """
 
     rotation_region: Region = Region(0.0, 1.0, 0.0, 1.0)
@@ -178,6 +183,7 @@ class VisualOdometryConfig:
     manhattan_window: int = 50
     manhattan_rate: float = 0.2
     manhattan_first_row: float = 0.3
+    working_width: int = 160
 
     def __post_init__(self) -> None:
         self.validate()
@@ -229,6 +235,10 @@ class VisualOdometryConfig:
                  isinstance(self.manhattan_window, int) and not isinstance(self.manhattan_window, bool)
                  and self.manhattan_window >= 2, "must be a whole number of frames, 2 or more")
         positive(path, manhattan_rate=self.manhattan_rate)
+        require(f"{path}.working_width", self.working_width,
+                 isinstance(self.working_width, int) and not isinstance(self.working_width, bool)
+                 and (self.working_width == 0 or 32 <= self.working_width <= 4096),
+                 "must be 0 (full resolution) or a whole number of columns from 32 to 4096")
         require(f"{path}.manhattan_first_row", self.manhattan_first_row,
                  number(self.manhattan_first_row) and 0 <= self.manhattan_first_row < 1,
                  "must be a fraction in [0, 1) of half the image height")

@@ -41,7 +41,7 @@ from .cues import CueSelectionMixin
 from .ground_motion import GroundMotion, blurred_with_gradients
 from .motion import BLIND, Observed, SelfMotion
 from .pitch import LevelTransitions, RotationAlignment
-from .preprocessing import crop, resize
+from .preprocessing import crop, reduce_to_width, resize
 from .profiles import best_shift, profile_turn, vertical_shift
 from .structure import StructureHeading
 
@@ -242,10 +242,11 @@ class VisualOdometry(CueSelectionMixin):
         self._ceiling_previous = None if self._ground is None else self._ground.pyramid
         if self._ground is not None:  # eq. G3a: eq. G3's prior on the distance loosens while nothing observes it
             self._ground.distance_certainty = 1.0 / (1 + self._unobserved)
-        ground = None if self._ground is None else self._ground.step(grey_image)
+        working = reduce_to_width(grey_image, self.config.working_width)  # the direct alignments' image
+        ground = None if self._ground is None else self._ground.step(working)
         finest_before = self._finest
         if self._alignment is not None:
-            self._finest = self._ground.finest if ground is not None else blurred_with_gradients(grey_image, 1.0)
+            self._finest = self._ground.finest if ground is not None else blurred_with_gradients(working, 1.0)
         if previous is None or dt <= 0:
             return SelfMotion(0.0, 0.0, 0.0)
         config = self.config

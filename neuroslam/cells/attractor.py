@@ -36,6 +36,8 @@ from collections.abc import Sequence
 import numpy as np
 from scipy import fft
 
+from .kernels import circular_means, inhibit_and_normalise, multiply_spectrum
+
 __all__ = ["AttractorNetwork", "gaussian_kernel", "wrapped_distance"]
 
 
@@ -122,10 +124,18 @@ class AttractorNetwork:
             view = [1] * self.dimensions
             view[axis] = spectrum_shape[axis]
             self._wavenumbers.append(k.reshape(view))
-        self._offsets = np.arange(-self.readout_radius, self.readout_radius + 1)
-        self._other_axes = [tuple(a for a in range(self.dimensions) if a != axis) for axis in range(self.dimensions)]
-        self._unit_circle = [(np.cos(2 * math.pi * np.arange(n) / n).astype(dtype),
-                              np.sin(2 * math.pi * np.arange(n) / n).astype(dtype)) for n in self.shape]
+        # the read-out's tables (:func:`~.kernels.circular_means`): each axis's cells on the unit circle, three axes
+        # (a missing one has one cell, read out over a window of none)
+        padded = self.shape + (1,) * (3 - self.dimensions)
+        self._cosines = np.zeros((3, max(padded)))
+        self._sines = np.zeros((3, max(padded)))
+        for axis, n in enumerate(padded):
+            self._cosines[axis, :n] = np.cos(2 * math.pi * np.arange(n) / n)
+            self._sines[axis, :n] = np.sin(2 * math.pi * np.arange(n) / n)
+        self._radius = np.array([self.readout_radius if axis < self.dimensions else 0 for axis in range(3)])
+        self._padded = padded
+        self._corners = np.array(list(np.ndindex(*(2,) * self.dimensions)))  # inject's 2^d neighbours
+        self._no_shift = [np.ones(n, dtype=self.kernel_spectrum.dtype) for n in self.kernel_spectrum.shape]
         self.activity = np.zeros(self.shape, dtype=dtype)
         self.reset(start if start is not None else [0.0] * self.dimensions)
 
@@ -179,29 +189,28 @@ class AttractorNetwork:
     def step(self, displacement: Sequence[float] | None = None) -> None:
         """One frame of attractor dynamics with path integration by ``displacement`` cells (any size)."""
         spectrum = fft.rfftn(self.activity)
-        spectrum *= self.kernel_spectrum
         if displacement is not None and any(d != 0 for d in displacement):
-            for factor in self.shift_factors(displacement):
-                spectrum *= factor
+            factors = [factor.ravel() for factor in self.shift_factors(displacement)]
+        else:
+            factors = list(self._no_shift)
+        factors += [np.ones(1, dtype=spectrum.dtype)] * (3 - self.dimensions)
+        shape3 = spectrum.shape + (1,) * (3 - self.dimensions)
+        multiply_spectrum(spectrum.reshape(shape3), self.kernel_spectrum.reshape(shape3), *factors)
         activity = fft.irfftn(spectrum, s=self.shape).astype(self.dtype, copy=False)
-        activity -= self.global_inhibition  # NeuroSLAM eqs. 4, 15
-        np.maximum(activity, 0, out=activity)
-        total = activity.sum()
-        if total <= 0:  # inhibition removed everything: keep the previous packet rather than lose it
-            return
-        activity /= total  # NeuroSLAM eqs. 5, 16
-        self.activity = activity
+        # NeuroSLAM eqs. 4, 15 (global inhibition), then 5, 16 (normalisation); where the inhibition removed
+        # everything, the previous packet is kept rather than lost
+        if inhibit_and_normalise(activity, self.global_inhibition) > 0:
+            self.activity = activity
 
     def inject(self, cell: Sequence[float], energy: float) -> None:
         """Add ``energy`` at a fractional ``cell``, split linearly over its 2^d neighbours (NeuroSLAM eq. 11)."""
         whole = np.floor(np.asarray(cell, dtype=float)).astype(int)
         residue = np.asarray(cell, dtype=float) - whole
-        for corner in np.ndindex(*(2,) * self.dimensions):
-            corner = np.array(corner)
-            weight = float(np.prod(np.where(corner == 1, residue, 1 - residue)))
-            if weight > 0:
-                index = tuple((whole + corner) % self.shape)
-                self.activity[index] += energy * weight
+        corners = self._corners
+        weights = np.prod(np.where(corners == 1, residue, 1 - residue), axis=1)
+        indices = (whole + corners) % self.shape
+        # one corner after another, as a loop over them would (two corners may be one cell on a small axis)
+        np.add.at(self.activity, tuple(indices.T), (energy * weights).astype(self.dtype))
 
     def normalise(self) -> None:
         """Scale the activity to a total of 1 (NeuroSLAM eqs. 5, 16)."""
@@ -213,15 +222,6 @@ class AttractorNetwork:
 
     def decode(self) -> np.ndarray:
         """Packet centre in fractional cells: circular mean of the activity in a window around the peak."""
-        peak = self.peak()
-        offsets = self._offsets
-        indices = [(p + offsets) % n for p, n in zip(peak, self.shape, strict=True)]
-        window = self.activity[np.ix_(*indices)]
-        centre = np.empty(self.dimensions)
-        for axis, n in enumerate(self.shape):
-            marginal = window.sum(axis=self._other_axes[axis]) if self.dimensions > 1 else window
-            cosines, sines = self._unit_circle[axis]
-            index = indices[axis]
-            angle = math.atan2(float(marginal @ sines[index]), float(marginal @ cosines[index]))
-            centre[axis] = (angle * n / (2 * math.pi)) % n
-        return centre
+        activity = self.activity.reshape(self._padded)
+        centre = circular_means(activity, int(np.argmax(activity)), self._radius, self._cosines, self._sines)
+        return centre[: self.dimensions]

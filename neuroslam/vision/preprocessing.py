@@ -72,8 +72,13 @@ def patch_normalise(image: np.ndarray, patch_size: int, *, wrap_columns: bool = 
     Flat patches (standard deviation below 1e-3 of the grey range) become 0 rather than noise.
     ``wrap_columns`` treats the columns as circular (panoramic images).
     """
-    mode = ("nearest", "wrap") if wrap_columns else "nearest"
-    mean = ndimage.uniform_filter(image, patch_size, mode=mode)
-    mean_square = ndimage.uniform_filter(image * image, patch_size, mode=mode)
+    if wrap_columns:  # circular columns: scipy's filter wraps them (OpenCV's box filter cannot)
+        mode = ("nearest", "wrap")
+        mean = ndimage.uniform_filter(image, patch_size, mode=mode)
+        mean_square = ndimage.uniform_filter(image * image, patch_size, mode=mode)
+    else:  # OpenCV's box filter, the border replicated: scipy's uniform_filter with mode "nearest"
+        image = np.asarray(image, dtype=np.float32)
+        mean = cv2.blur(image, (patch_size, patch_size), borderType=cv2.BORDER_REPLICATE)
+        mean_square = cv2.blur(image * image, (patch_size, patch_size), borderType=cv2.BORDER_REPLICATE)
     deviation = np.sqrt(np.maximum(mean_square - mean * mean, 0.0))
     return ((image - mean) / np.maximum(deviation, 1e-3)).astype(np.float32)

@@ -21,6 +21,7 @@ import json
 import math
 import re
 from dataclasses import dataclass
+from functools import cached_property
 from importlib import resources
 from pathlib import Path
 
@@ -45,12 +46,13 @@ class Route:
     waypoints: np.ndarray
     loop: bool = True
 
-    @property
+    @cached_property
     def vertices(self) -> np.ndarray:
-        """Polyline vertices, closed (first point repeated at the end) for loops."""
+        """Polyline vertices, closed (first point repeated at the end) for loops (computed once: the route's
+        controller asks for them several times a control period)."""
         return np.vstack([self.waypoints, self.waypoints[:1]]) if self.loop else self.waypoints
 
-    @property
+    @cached_property
     def cumulative_length(self) -> np.ndarray:
         """Arc length at each vertex of :attr:`vertices`, m (3-D, so ramps count their slope)."""
         steps = np.linalg.norm(np.diff(self.vertices, axis=0), axis=1)

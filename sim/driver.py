@@ -119,10 +119,11 @@ class PurePursuit:
     def command(self, position: np.ndarray, yaw: float) -> tuple[float, float]:
         """Forward speed (m/s) and yaw rate (rad/s) for the robot at ``position`` (m) heading ``yaw`` (rad)."""
         self.progress = self._project(np.asarray(position, dtype=float))
-        target = self.route.point_at(self.progress + self.lookahead)
+        # the target one lookahead on, and two more points a lookahead apart for the corner ahead
+        ahead = self.route.point_at(self.progress + np.array([self.lookahead, 2 * self.lookahead, 3 * self.lookahead]))
+        target = ahead[0]
         bearing = _wrap(math.atan2(target[1] - position[1], target[0] - position[0]) - yaw)
         # slow down in sharp turns and ahead of corners, turn on the spot when facing away
-        ahead = self.route.point_at(self.progress + np.array([self.lookahead, 2 * self.lookahead, 3 * self.lookahead]))
         d1, d2 = ahead[1, :2] - ahead[0, :2], ahead[2, :2] - ahead[1, :2]
         corner = abs(_wrap(math.atan2(d2[1], d2[0]) - math.atan2(d1[1], d1[0])))
         speed = self.speed * max(0.0, math.cos(bearing)) ** 2 * max(0.35, 1.0 - corner / math.pi)

@@ -11,7 +11,7 @@ from conftest import BUILTIN_WORLDS, GENERATED_WORLDS
 
 import sim
 from sim.arenas import BUILTIN_BUILDERS, Rect, generated, routes_json, subtract_rectangles
-from sim.simulation import Simulation
+from sim.simulation import HIGH_SHADOW_SIZE, Simulation
 from sim.world import _worlds_directory
 
 
@@ -136,7 +136,7 @@ def test_visual_profiles():
     images = {}
     for quality in ("fast", "high"):
         with Simulation(world, quality=quality) as simulation:
-            assert simulation.model.vis.quality.shadowsize == (0 if quality == "fast" else 4096)
+            assert simulation.model.vis.quality.shadowsize == (0 if quality == "fast" else HIGH_SHADOW_SIZE)
             assert bool(simulation.model.light_castshadow.all()) == (quality == "high")
             images[quality] = simulation.render()
     assert np.mean(np.abs(images["fast"].astype(int) - images["high"].astype(int))) > 1.0

@@ -43,8 +43,9 @@ def build_parser() -> argparse.ArgumentParser:
     drive.add_argument("--camera-rate", type=positive_float, default=10.0, help="frames per second (default: 10)")
     drive.add_argument("--panoramic", action="store_true", help="stitch four cameras into a 360-degree strip")
     drive.add_argument("--quality", choices=["fast", "high"], default="fast",
-                       help="visual profile (default: fast); high renders shadows and reflections at about 0.2 s a "
-                       "frame on a CPU (at 320x240; fast: 3-4 ms), so two laps take 20 minutes or more")
+                       help="visual profile (default: fast); high renders shadows and multisampling at about 25 ms "
+                       "a frame on a CPU (35 ms at 320x240; fast: 3-4 ms): two laps of the car park take 2-3 "
+                       "minutes longer")
     slam_options(drive, sessions=True)
     drive.add_argument("--odometry", choices=ODOMETRY_MODES, default="visual",
                        help="self-motion from the camera (visual odometry), from the wheel encoders with the "

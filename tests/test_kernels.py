@@ -173,3 +173,38 @@ def test_rotation_solve_recovers_a_pure_rotation():
     _, _, capped = rotation_solve(previous, target, x[region], y[region], labels, np.zeros(3), FOCAL, 0.05, 2, 1e-2,
                                   0.0)
     assert capped == 2
+
+
+def test_the_grid_networks_recurrent_input_from_quarter_sheets_is_the_masked_sheets():
+    """grid-network eqs. 1–2: Σ_d K_d · FFT(mask_d · s) from the four sub-sheets' FFTs equals it from the four masked
+    whole sheets (float32 spectra: 1e-5 of the largest term)."""
+    from scipy import fft
+
+    from neuroslam.cells.grid_network import GridNetwork
+    from neuroslam.cells.kernels import polyphase_recurrence
+    from neuroslam.config import GridNetworkConfig
+
+    network = GridNetwork(GridNetworkConfig(size=32, settle_steps=0, calibration_directions=0))
+    rng = np.random.default_rng(7)
+    activity = rng.random((32, 32)).astype(np.float32)
+    masks = np.stack([network.direction_index == d for d in range(4)])
+    # the kernels without the folded-in phase: divide it out again
+    rows = np.fft.fftfreq(32, 1 / 32)[:, None]
+    columns = np.arange(17)[None, :]
+    phases = np.stack([np.exp(-2j * math.pi * (rows * (d // 2) + columns * (d % 2)) / 32) for d in range(4)])
+    kernels = network._kernels / phases
+    expected = np.einsum("dij,dij->ij", kernels, fft.rfft2(masks * activity))
+    sub_sheets = activity.reshape(16, 2, 16, 2).transpose(1, 3, 0, 2).reshape(4, 16, 16)
+    result = polyphase_recurrence(fft.rfft2(sub_sheets), network._kernels)
+    np.testing.assert_allclose(result, expected, rtol=0, atol=1e-5 * np.abs(expected).max())
+
+
+def test_phase_ramp_is_the_fourier_shift():
+    from scipy import fft
+
+    from neuroslam.cells.kernels import phase_ramp
+
+    sheet = np.random.default_rng(8).random((24, 30))
+    spectrum = fft.rfft2(sheet)
+    shifted = fft.irfft2(phase_ramp(spectrum, 24, 30, 3.0, -5.0), s=sheet.shape)
+    np.testing.assert_allclose(shifted, np.roll(sheet, (3, -5), axis=(0, 1)), atol=1e-12)

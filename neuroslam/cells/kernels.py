@@ -1,5 +1,6 @@
-"""Compiled loops of the attractor networks' frame (:mod:`.attractor`): the spectra's product, the global
-inhibition and normalisation, and the packet's read-out.
+"""Compiled loops of the attractor networks' frame (:mod:`.attractor`: the spectra's product, the global
+inhibition and normalisation, and the packet's read-out) and of the grid network's (:mod:`.grid_network`:
+the recurrent input from four quarter-size FFTs, the Euler step and the read-out's Gauss–Newton sums).
 
 Written with numpy, each of these is several passes over the network's cells (36,864 for the grid cells) and
 as many temporary arrays; here each is one loop, compiled by numba (cached on disk like
@@ -15,7 +16,8 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["circular_means", "inhibit_and_normalise", "multiply_spectrum"]
+__all__ = ["circular_means", "euler_step", "inhibit_and_normalise", "multiply_spectrum", "phase_ramp",
+           "polyphase_recurrence", "shift_normal_equations"]
 
 _JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 
@@ -79,3 +81,84 @@ def circular_means(activity, peak, radius, cosines, sines):
         angle = math.atan2(sums_sin[axis], sums_cos[axis])
         centre[axis] = (angle * sizes[axis] / (2 * math.pi)) % sizes[axis]
     return centre
+
+
+@numba.njit(**{**_JIT, "fastmath": True})
+def polyphase_recurrence(small_spectra, kernels):
+    """The recurrent input's spectrum of the grid network (grid-network eqs. 1–2): Σ_d K_d · FFT(mask_d · s), from
+    the real FFTs of the four sub-sheets s[r::2, c::2] (``small_spectra``: (4, m, m // 2 + 1), direction
+    d = 2 r + c) instead of four FFTs of the whole masked sheet. With n = 2 m, the whole sheet's spectrum
+    of the masked activity at (k, l) is e^{-2πi (k r + l c) / n} S_d[k mod m, l mod m] (the zeros between a
+    sub-sheet's neurons make its spectrum repeat); that phase is folded into ``kernels`` ((4, n, n // 2 + 1):
+    K_d times it), and S_d beyond m // 2 columns is the complex conjugate of its mirror (the sub-sheet is
+    real). Returns the (n, n // 2 + 1) spectrum."""
+    directions, rows, columns = kernels.shape
+    m = small_spectra.shape[1]
+    half = m // 2
+    whole = np.empty((directions, m, m), dtype=kernels.dtype)  # each sub-sheet's full spectrum
+    for d in range(directions):
+        for p in range(m):
+            mirrored = (m - p) % m
+            for q in range(m):
+                whole[d, p, q] = small_spectra[d, p, q] if q <= half else np.conj(small_spectra[d, mirrored, m - q])
+    out = np.empty((rows, columns), dtype=kernels.dtype)
+    for k in range(rows):
+        p = k % m
+        for column in range(columns):
+            q = column % m
+            out[k, column] = (kernels[0, k, column] * whole[0, p, q] + kernels[1, k, column] * whole[1, p, q]
+                         + kernels[2, k, column] * whole[2, p, q] + kernels[3, k, column] * whole[3, p, q])
+    return out
+
+
+@numba.njit(**_JIT)
+def euler_step(activity, recurrent, drive, rate):
+    """One Euler step of grid-network eq. 1, in place: s ← s + rate (max(Σ W s + B, 0) − s), with the
+    recurrent input ``recurrent`` (Σ W s) and ``drive`` (B, grid-network eq. 4)."""
+    rows, columns = activity.shape
+    for i in range(rows):
+        for j in range(columns):
+            value = activity[i, j]
+            activity[i, j] = value + rate * (max(recurrent[i, j] + drive[i, j], 0.0) - value)
+
+
+@numba.njit(**_JIT)
+def shift_normal_equations(moved, target):
+    """The read-out's Gauss–Newton system (grid-network paper, Table I, refined below a cell): with the central
+    differences g_0, g_1 of ``moved`` along its two axes (wrapping around), the normal matrix
+    [[Σ g_0², Σ g_0 g_1], [Σ g_0 g_1, Σ g_1²]] and the right-hand side −(Σ g_0 r, Σ g_1 r), r = target − moved."""
+    rows, columns = moved.shape
+    s00 = s01 = s11 = r0 = r1 = 0.0
+    for i in range(rows):
+        up, down = (i - 1) % rows, (i + 1) % rows
+        for j in range(columns):
+            left, right = (j - 1) % columns, (j + 1) % columns
+            g0 = (moved[down, j] - moved[up, j]) / 2
+            g1 = (moved[i, right] - moved[i, left]) / 2
+            residual = target[i, j] - moved[i, j]
+            s00 += g0 * g0
+            s01 += g0 * g1
+            s11 += g1 * g1
+            r0 += g0 * residual
+            r1 += g1 * residual
+    return np.array([[s00, s01], [s01, s11]]), -np.array([r0, r1])
+
+
+@numba.njit(**_JIT)
+def phase_ramp(spectrum, rows, columns, shift_0, shift_1):
+    """``spectrum`` (the real FFT of a ``rows`` × ``columns`` sheet) times the phase ramp of a circular shift by
+    (``shift_0``, ``shift_1``) cells: e^{-2πi (k shift_0 / rows + l shift_1 / columns)}, as a new array (the
+    Fourier shift theorem)."""
+    count_rows, count_columns = spectrum.shape
+    out = np.empty_like(spectrum)
+    ramp_columns = np.empty(count_columns, dtype=spectrum.dtype)
+    for column in range(count_columns):
+        angle = -2 * math.pi * column / columns * shift_1
+        ramp_columns[column] = complex(math.cos(angle), math.sin(angle))
+    for k in range(count_rows):
+        frequency = k if k < (rows + 1) // 2 else k - rows  # numpy's fftfreq order
+        angle = -2 * math.pi * frequency / rows * shift_0
+        ramp_row = complex(math.cos(angle), math.sin(angle))
+        for column in range(count_columns):
+            out[k, column] = spectrum[k, column] * ramp_row * ramp_columns[column]
+    return out

@@ -132,7 +132,8 @@ class GridNetworkConfig:
 
     def validate(self, path: str = "grid_network") -> None:
         require(f"{path}.size", self.size, isinstance(self.size, int) and not isinstance(self.size, bool)
-                 and 16 <= self.size <= 1024, "must be an integer from 16 to 1024 (neurons)")
+                 and 16 <= self.size <= 1024 and self.size % 2 == 0,
+                 "must be an even integer from 16 to 1024 (neurons: each 2 x 2 block holds the four directions)")
         positive(path, time_constant=self.time_constant, time_step=self.time_step,
                   excitation_scale=self.excitation_scale, lattice_period=self.lattice_period,
                   surround_ratio=self.surround_ratio, velocity_scale=self.velocity_scale)

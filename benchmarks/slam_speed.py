@@ -1,16 +1,30 @@
-"""Speed of NeuroSLAM per frame: each component and the whole ``step()``, as the map grows.
+"""Speed of NeuroSLAM per frame: the typical step, the worst case, the cost at three resolutions, each
+component as the map grows, and the least-squares relaxation after a loop closure.
 
-Run: ``python benchmarks/slam_speed.py [--frames N] [--templates 100 1000 10000]``. Frames are the
-testbed's 160×120 camera frames from a drive through the car park (rendered once before timing); before
-timing, the map is filled with the given number of random templates and as many experiences in a chain,
-so matching and relaxation work on a map of that size. Prints the median milliseconds per frame on one core,
-and the cost of one least-squares relaxation (``experience_map.relaxation = "least-squares"``) after a loop
-closure that closes a lap of that many experiences (it runs on loop-closure frames only).
+Run: ``python benchmarks/slam_speed.py [--frames N] [--templates 100 1000 10000] [--quick]``. One core
+(``OMP_NUM_THREADS=1``), the ``sim`` preset. Prints:
+
+- a **calibration workload** (a fixed mix of numpy FFTs, a matrix product, a sort and a Python loop) timed in
+  the same run, and every figure below also as a multiple of it, so runs on differently loaded machines
+  (this project's shared machines move by up to 2×) can be compared;
+- the **typical step**: the median ms of ``NeuroSLAM.step`` on the testbed's car-park frames at 160×120
+  (a drive of its main route, rendered before timing) with 1,000 templates and as many experiences;
+- the **worst case**: novel frames (uniform random images, each unlike the last, so every alignment starts
+  far from its solution and runs to its caps) with 10,000 templates: median, 95th percentile and maximum,
+  and the median's ratio to the typical step;
+- the **resolutions**: the typical step on the car park rendered at 160×120, 320×240 and 640×480, and each
+  one's ratio to 160×120 (``odometry.working_width`` sets the size the alignments run at);
+- the **alignment passes** per frame (each a pass over a few thousand pixels: a Gauss–Newton iteration or a
+  cost), median and maximum, on the car park and on novel frames: the odometry's bounded work;
+- each **component** with the map filled to each ``--templates`` count (random templates, experiences in a
+  chain), and the least-squares relaxation's cost on the frame that closes a lap of that many experiences
+  (it runs on loop-closure frames only).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import statistics
 import time
@@ -23,12 +37,40 @@ from neuroslam import NeuroSLAM, presets
 from neuroslam.vision.preprocessing import grey
 
 
-def frames(count: int) -> list[np.ndarray]:
-    """``count`` camera frames of the car park's main route (the testbed renders them)."""
+def calibration_ms(repeats: int = 7) -> float:
+    """The median ms of a fixed workload of the kinds NeuroSLAM's step does (FFTs, a matrix product, a sort,
+    a short Python loop), the unit the other figures are also given in."""
+    rng = np.random.default_rng(0)
+    cube = rng.random((48, 48, 16)).astype(np.float32)
+    matrix = rng.random((192, 192)).astype(np.float32)
+    values = rng.random(20000)
+    samples = []
+    for _ in range(repeats):
+        started = time.perf_counter()
+        for _ in range(5):
+            np.fft.irfftn(np.fft.rfftn(cube), s=cube.shape, axes=(0, 1, 2))
+            matrix @ matrix
+            np.sort(values)
+            total = 0.0
+            for k in range(2000):
+                total += k * 0.5
+        samples.append(time.perf_counter() - started)
+    return 1000 * statistics.median(samples)
+
+
+def frames(count: int, width: int = 160, height: int = 120) -> list[np.ndarray]:
+    """``count`` camera frames of the car park's main route at ``width`` × ``height`` (the testbed renders them)."""
     import sim
 
-    with sim.ScriptedDrive("carpark", max_frames=count, seed=0) as drive:
+    camera = dataclasses.replace(sim.CameraConfig(), width=width, height=height)
+    with sim.ScriptedDrive("carpark", max_frames=count, seed=0, camera=camera) as drive:
         return [frame.image for frame in drive]
+
+
+def novel_frames(count: int, seed: int = 2) -> list[np.ndarray]:
+    """``count`` uniform random 160×120 RGB frames: each unlike the one before."""
+    rng = np.random.default_rng(seed)
+    return [rng.integers(0, 256, (120, 160, 3), dtype=np.uint8) for _ in range(count)]
 
 
 def filled(templates: int, seed: int = 1) -> NeuroSLAM:
@@ -47,6 +89,26 @@ def filled(templates: int, seed: int = 1) -> NeuroSLAM:
 
 def median_ms(samples: list[float]) -> float:
     return 1000 * statistics.median(samples)
+
+
+def steps(images: list[np.ndarray], templates: int) -> tuple[np.ndarray, np.ndarray]:
+    """ms of each ``NeuroSLAM.step`` over ``images`` on a map of ``templates`` (the first frame, which has no
+    previous one, left out), and the alignment passes of each frame: (ms, passes (frames, 2): floor, rotation)."""
+    slam = filled(templates)
+    odometry = slam.visual_odometry
+    floor, rotation = odometry._ground, odometry._alignment
+
+    def counts() -> tuple[int, int]:  # (0, 0) on code from before the counters (a baseline checkout)
+        return getattr(floor, "passes", 0), getattr(rotation, "passes", 0)
+
+    timings, passes = [], []
+    for k, image in enumerate(images):
+        before = counts()
+        started = time.perf_counter()
+        slam.step(image, 0.1 * (k + 1))
+        timings.append(time.perf_counter() - started)
+        passes.append(np.subtract(counts(), before))
+    return 1000 * np.array(timings[1:]), np.array(passes[1:])
 
 
 def measure(templates: int, count: int) -> dict[str, float]:
@@ -116,11 +178,49 @@ def closure_solve_ms(experiences: int) -> tuple[float, float, int]:
     return 1000 * first, 1000 * (time.perf_counter() - started), frames
 
 
+def headline(count: int) -> None:
+    """The calibration, the typical step, the worst case, the resolutions and the passes (see the module)."""
+    unit = calibration_ms()
+    print(f"calibration workload: {unit:.2f} ms (the unit of the 'x cal.' column)")
+
+    def line(label: str, ms: float, extra: str = "") -> None:
+        print(f"  {label:<46}{ms:8.2f} ms  {ms / unit:6.3f} x cal.{extra}")
+
+    warm = filled(10)  # compile the alignment loops (numba) before any timing
+    for k, image in enumerate(frames(3)):
+        warm.step(image, 0.1 * (k + 1))
+    typical, typical_passes = steps(frames(count + 1), 1000)
+    typical_ms = float(np.median(typical))
+    print("typical step (car park, 160x120, 1,000 templates)")
+    line("median", typical_ms)
+    novel, novel_passes = steps(novel_frames(count + 1), 10000)
+    print("worst case (novel random frames, 160x120, 10,000 templates)")
+    line("median", float(np.median(novel)), f"  {np.median(novel) / typical_ms:5.2f} x typical")
+    slow = float(np.percentile(novel, 95))
+    line("95th percentile", slow, f"  {slow / typical_ms:5.2f} x typical")
+    line("maximum", float(novel.max()), f"  {novel.max() / typical_ms:5.2f} x typical")
+    print("resolution (car park, 1,000 templates; odometry.working_width 160)")
+    for width, height in ((160, 120), (320, 240), (640, 480)):
+        timings, _ = (typical, None) if width == 160 else steps(frames(count + 1, width, height), 1000)
+        line(f"{width}x{height} median", float(np.median(timings)),
+             f"  {np.median(timings) / typical_ms:5.2f} x 160x120")
+    print("alignment passes per frame (floor / rotation), median and maximum")
+    for label, passes in (("car park", typical_passes), ("novel frames", novel_passes)):
+        print(f"  {label:<46}{np.median(passes[:, 0]):5.0f} / {np.median(passes[:, 1]):3.0f}   "
+              f"max {passes[:, 0].max():3d} / {passes[:, 1].max():3d}")
+    print()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--frames", type=int, default=200, help="frames timed per map size (default: 200)")
-    parser.add_argument("--templates", type=int, nargs="+", default=[100, 1000, 10000])
+    parser.add_argument("--frames", type=int, default=200, help="frames timed per case (default: 200)")
+    parser.add_argument("--templates", type=int, nargs="+", default=[100, 1000, 10000],
+                        help="map sizes of the components' table (default: 100 1000 10000)")
+    parser.add_argument("--quick", action="store_true", help="the headline figures alone (no components' table)")
     args = parser.parse_args()
+    headline(args.frames)
+    if args.quick:
+        return
     results = {n: measure(n, args.frames) for n in args.templates}
     names = list(next(iter(results.values())))
     print("median ms per frame, 160x120, preset 'sim', one core")

@@ -65,6 +65,25 @@ def sample_bilinear(stack, u, v):
     return out
 
 
+@numba.njit(inline="always", **_FAST)
+def _sample32(flat_image, flat_u, flat_v, columns, u, v, limit_u, limit_v):
+    """Bilinear samples (float32) of a flattened image and its two gradient images at (u, v), each clamped to
+    [0, limit]: the per-pixel passes' form of :func:`sample_bilinear`, without branches."""
+    f32 = np.float32
+    u, v = min(max(u, f32(0.0)), limit_u), min(max(v, f32(0.0)), limit_v)
+    u0, v0 = np.int32(u), np.int32(v)
+    fu, fv = u - f32(u0), v - f32(v0)
+    i = v0 * columns + u0
+    j = i + columns
+    top = flat_image[i] + fu * (flat_image[i + 1] - flat_image[i])
+    intensity = top + fv * (flat_image[j] + fu * (flat_image[j + 1] - flat_image[j]) - top)
+    top = flat_u[i] + fu * (flat_u[i + 1] - flat_u[i])
+    gradient_u = top + fv * (flat_u[j] + fu * (flat_u[j + 1] - flat_u[j]) - top)
+    top = flat_v[i] + fu * (flat_v[i + 1] - flat_v[i])
+    gradient_v = top + fv * (flat_v[j] + fu * (flat_v[j + 1] - flat_v[j]) - top)
+    return intensity, gradient_u, gradient_v
+
+
 @numba.njit(**_FAST)
 def _floor_sums(old, target, ground_x, ground_y, flow, focal, centre_u, centre_v, height, forward, distance, turn,
                 robust_scale, crosswise):
@@ -91,17 +110,7 @@ def _floor_sums(old, target, ground_x, ground_y, flow, focal, centre_u, centre_v
         v = cv + f * h * inverse
         visible = (ahead > near) & (u >= zero) & (u <= limit_u) & (v >= zero) & (v <= limit_v)
         # bilinear samples of the image and its gradients, clamped (an unseen pixel's weight is 0 below)
-        u, v = min(max(u, zero), limit_u), min(max(v, zero), limit_v)
-        u0, v0 = np.int32(u), np.int32(v)
-        fu, fv = u - f32(u0), v - f32(v0)
-        i = v0 * columns + u0
-        j = i + columns
-        top = flat_image[i] + fu * (flat_image[i + 1] - flat_image[i])
-        intensity = top + fv * (flat_image[j] + fu * (flat_image[j + 1] - flat_image[j]) - top)
-        top = flat_u[i] + fu * (flat_u[i + 1] - flat_u[i])
-        gradient_u = top + fv * (flat_u[j] + fu * (flat_u[j + 1] - flat_u[j]) - top)
-        top = flat_v[i] + fu * (flat_v[i + 1] - flat_v[i])
-        gradient_v = top + fv * (flat_v[j] + fu * (flat_v[j + 1] - flat_v[j]) - top)
+        intensity, gradient_u, gradient_v = _sample32(flat_image, flat_u, flat_v, columns, u, v, limit_u, limit_v)
         residual = intensity - target[k]
         d_py = -f * gradient_u * inverse  # the chain rule through eqs. G1 and G2
         d_px = -(d_py * py + f * h * gradient_v * inverse) * inverse
@@ -210,17 +219,7 @@ def _rotation_sums(previous, target, x, y, labels, yaw, pitch, expansions, focal
         u = scale * rx * inverse + centre_u  # eq. R1
         v = scale * py * inverse + centre_v
         visible = (u >= zero) & (u <= limit_u) & (v >= zero) & (v <= limit_v)
-        u, v = min(max(u, zero), limit_u), min(max(v, zero), limit_v)
-        u0, v0 = np.int32(u), np.int32(v)
-        fu, fv = u - f32(u0), v - f32(v0)
-        i = v0 * columns + u0
-        j = i + columns
-        top = flat_image[i] + fu * (flat_image[i + 1] - flat_image[i])
-        intensity = top + fv * (flat_image[j] + fu * (flat_image[j + 1] - flat_image[j]) - top)
-        top = flat_u[i] + fu * (flat_u[i + 1] - flat_u[i])
-        gradient_u = top + fv * (flat_u[j] + fu * (flat_u[j + 1] - flat_u[j]) - top)
-        top = flat_v[i] + fu * (flat_v[i + 1] - flat_v[i])
-        gradient_v = top + fv * (flat_v[j] + fu * (flat_v[j + 1] - flat_v[j]) - top)
+        intensity, gradient_u, gradient_v = _sample32(flat_image, flat_u, flat_v, columns, u, v, limit_u, limit_v)
         residual = intensity - target[k]
         size = abs(residual)
         weight = scale_huber / max(size, scale_huber)

@@ -5,7 +5,7 @@ time, ground truth, wheels); the runner feeds them to NeuroSLAM one ``step`` at 
 history; ``metrics()`` scores it as ``neuroslam drive`` does (the SLAM trajectory is every frame in the
 final map, what SLAM evaluations score) and ``write()`` leaves every output file, the report figure too.
 
-Run: ``python examples/drive_and_score.py`` (two laps, about 90 s; writes into
+Run: ``python examples/drive_and_score.py`` (two laps, about a minute; writes into
 ``runs/examples/drive_and_score/``). ``NEUROSLAM_EXAMPLE_FRAMES=N`` stops after N frames (the test suite
 uses it; the code is the same).
 """

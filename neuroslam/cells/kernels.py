@@ -83,7 +83,7 @@ def circular_means(activity, peak, radius, cosines, sines):
     return centre
 
 
-@numba.njit(**{**_JIT, "fastmath": True})
+@numba.njit(**_JIT)
 def polyphase_recurrence(small_spectra, kernels):
     """The recurrent input's spectrum of the grid network (grid-network eqs. 1–2): Σ_d K_d · FFT(mask_d · s), from
     the real FFTs of the four sub-sheets s[r::2, c::2] (``small_spectra``: (4, m, m // 2 + 1), direction

@@ -6,12 +6,13 @@ its gradients bilinearly, form the residual, the Jacobian and the Huber weight, 
 Written with numpy arrays, each iteration is some forty passes over the pixels and as many temporary arrays
 (about 0.3 ms at 160 × 120 on this project's machine, most of it in call overhead and fancy indexing); here it
 is one loop, compiled by numba. The loop over the pixels is written without branches, in float32 (the images'
-own precision, and the numpy forms' arrays), with numba's ``fastmath`` so that the compiler may reorder the
-sums and run it on the processor's vector units: about 9 ns a pixel, 30 µs for the floor's 3,200 pixels at
-160 × 120 (25 ns a pixel in float64 with branches). The equations are the modules' own; the sums' rounding
-differs from the numpy forms' (both float32 sums over a few thousand terms, about 1e-5 relative), so results
-agree with them to that, not bit for bit. The iterations' bookkeeping (the 2 × 2 or 6 × 6 solves, the prior,
-the stopping tests) is in float64.
+own precision, and the numpy forms' arrays), its sums in IEEE order: numba's ``fastmath`` would let the
+compiler reorder them onto the vector units (about 9 ns a pixel against about 20), but it reordered them
+differently for a function compiled afresh and the same function loaded from numba's cache, so two runs of
+one drive differed in the last digits (``tests/test_determinism.py``). The equations are the modules' own;
+the sums' rounding differs from the numpy forms' (both float32 sums over a few thousand terms, about 1e-5
+relative), so results agree with them to that, not bit for bit. The iterations' bookkeeping (the 2 × 2 or
+6 × 6 solves, the prior, the stopping tests) is in float64.
 
 The functions are compiled on first use and cached on disk (numba's ``cache=True``: beside this file where
 it is writable, else in the user's cache directory), so a new process pays the compilation (a few seconds)
@@ -28,7 +29,10 @@ import numpy as np
 __all__ = ["ground_align", "rotation_cost", "rotation_solve", "sample_bilinear"]
 
 _JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
-_FAST = {**_JIT, "fastmath": True}  # the per-pixel passes: the sums may be reordered (vectorised)
+# no fastmath: with it the compiler may reorder the sums, and did so differently for a function compiled
+# afresh and the same function loaded from numba's cache (two runs of one drive then differed in the last
+# digits; tests/test_determinism.py); IEEE order keeps every run's numbers the same
+_FAST = _JIT
 
 
 @numba.njit(inline="always", **_JIT)
@@ -84,7 +88,7 @@ def _sample32(flat_image, flat_u, flat_v, columns, u, v, limit_u, limit_v):
     return intensity, gradient_u, gradient_v
 
 
-@numba.njit(**_FAST)
+@numba.njit(inline="always", **_FAST)
 def _floor_sums(old, target, ground_x, ground_y, flow, focal, centre_u, centre_v, height, forward, distance, turn,
                 robust_scale, crosswise):
     """One pass of eqs. G1–G3 over the floor pixels at (``distance``, ``turn``): the Huber-weighted normal
@@ -133,7 +137,7 @@ def _floor_sums(old, target, ground_x, ground_y, flow, focal, centre_u, centre_v
             int(visible_count))
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_FAST)
 def ground_align(old, target, ground_x, ground_y, flow, focal, centre_u, centre_v, height, forward, distance, turn,
                  prior_distance, prior_turn, weight_distance, weight_turn, prior_weight, min_information, crosswise,
                  robust_scale, iterations, tolerance, near_only):
@@ -187,7 +191,7 @@ def ground_align(old, target, ground_x, ground_y, flow, focal, centre_u, centre_
     return distance, turn, information_distance, information_turn, support, near_information, done
 
 
-@numba.njit(**_FAST)
+@numba.njit(inline="always", **_FAST)
 def _rotation_sums(previous, target, x, y, labels, yaw, pitch, expansions, focal, robust_scale):
     """One pass of eqs. R1–R2 over the region's pixels (x, y from the image centre, px, float32), each with the
     expansion of its quadrant ``expansions[labels[k]]`` (four values). Returns the Huber-weighted normal
@@ -265,7 +269,7 @@ def _rotation_sums(previous, target, x, y, labels, yaw, pitch, expansions, focal
                      ye3, pe3, ee3, er3, cost, visible_count], dtype=np.float64)
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_FAST)
 def _expansions(parameters):
     """The four quadrants' expansions of ``parameters`` (yaw, pitch, e) or (yaw, pitch, e_0 … e_3)."""
     out = np.empty(4)
@@ -274,7 +278,7 @@ def _expansions(parameters):
     return out
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_FAST)
 def rotation_normal(previous, target, x, y, labels, parameters, focal, robust_scale):
     """The Huber-weighted normal equations of eq. R2 at ``parameters`` = (yaw, pitch, e_0 … e_{K−1}) (K = 1 or 4),
     each pixel (x, y from the image centre, px) with its own expansion e_labels[k] (labels all 0 for K = 1):
@@ -298,7 +302,7 @@ def rotation_normal(previous, target, x, y, labels, parameters, focal, robust_sc
     return normal, gradient
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_FAST)
 def rotation_cost(previous, target, x, y, labels, parameters, focal, robust_scale):
     """Eq. R2's mean Huber cost over the pixels that land inside the previous image, and their share:
     (cost, support)."""
@@ -308,7 +312,7 @@ def rotation_cost(previous, target, x, y, labels, parameters, focal, robust_scal
     return sums[21] / max(sums[22], 1.0), sums[22] / max(count, 1)
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_FAST)
 def rotation_solve(previous, target, x, y, labels, start, focal, robust_scale, iterations, damping, tolerance):
     """Gauss–Newton on eq. R2 from ``start`` (yaw, pitch, e_0 … e_{K−1}), at most ``iterations`` times, until the
     yaw and pitch updates are below ``tolerance`` rad; the normal equations damped by ``damping`` × identity.

@@ -28,11 +28,10 @@ import numpy as np
 
 __all__ = ["ground_align", "rotation_cost", "rotation_solve", "sample_bilinear"]
 
-_JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 # no fastmath: with it the compiler may reorder the sums, and did so differently for a function compiled
 # afresh and the same function loaded from numba's cache (two runs of one drive then differed in the last
 # digits; tests/test_determinism.py); IEEE order keeps every run's numbers the same
-_FAST = _JIT
+_JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 
 @numba.njit(inline="always", **_JIT)
@@ -69,7 +68,7 @@ def sample_bilinear(stack, u, v):
     return out
 
 
-@numba.njit(inline="always", **_FAST)
+@numba.njit(inline="always", **_JIT)
 def _sample32(flat_image, flat_u, flat_v, columns, u, v, limit_u, limit_v):
     """Bilinear samples (float32) of a flattened image and its two gradient images at (u, v), each clamped to
     [0, limit]: the per-pixel passes' form of :func:`sample_bilinear`, without branches."""
@@ -88,7 +87,7 @@ def _sample32(flat_image, flat_u, flat_v, columns, u, v, limit_u, limit_v):
     return intensity, gradient_u, gradient_v
 
 
-@numba.njit(inline="always", **_FAST)
+@numba.njit(inline="always", **_JIT)
 def _floor_sums(old, target, ground_x, ground_y, flow, focal, centre_u, centre_v, height, forward, distance, turn,
                 robust_scale, crosswise):
     """One pass of eqs. G1–G3 over the floor pixels at (``distance``, ``turn``): the Huber-weighted normal
@@ -137,7 +136,7 @@ def _floor_sums(old, target, ground_x, ground_y, flow, focal, centre_u, centre_v
             int(visible_count))
 
 
-@numba.njit(**_FAST)
+@numba.njit(**_JIT)
 def ground_align(old, target, ground_x, ground_y, flow, focal, centre_u, centre_v, height, forward, distance, turn,
                  prior_distance, prior_turn, weight_distance, weight_turn, prior_weight, min_information, crosswise,
                  robust_scale, iterations, tolerance, near_only):
@@ -191,7 +190,7 @@ def ground_align(old, target, ground_x, ground_y, flow, focal, centre_u, centre_
     return distance, turn, information_distance, information_turn, support, near_information, done
 
 
-@numba.njit(inline="always", **_FAST)
+@numba.njit(inline="always", **_JIT)
 def _rotation_sums(previous, target, x, y, labels, yaw, pitch, expansions, focal, robust_scale):
     """One pass of eqs. R1–R2 over the region's pixels (x, y from the image centre, px, float32), each with the
     expansion of its quadrant ``expansions[labels[k]]`` (four values). Returns the Huber-weighted normal
@@ -269,7 +268,7 @@ def _rotation_sums(previous, target, x, y, labels, yaw, pitch, expansions, focal
                      ye3, pe3, ee3, er3, cost, visible_count], dtype=np.float64)
 
 
-@numba.njit(**_FAST)
+@numba.njit(**_JIT)
 def _expansions(parameters):
     """The four quadrants' expansions of ``parameters`` (yaw, pitch, e) or (yaw, pitch, e_0 … e_3)."""
     out = np.empty(4)
@@ -278,7 +277,7 @@ def _expansions(parameters):
     return out
 
 
-@numba.njit(**_FAST)
+@numba.njit(**_JIT)
 def rotation_normal(previous, target, x, y, labels, parameters, focal, robust_scale):
     """The Huber-weighted normal equations of eq. R2 at ``parameters`` = (yaw, pitch, e_0 … e_{K−1}) (K = 1 or 4),
     each pixel (x, y from the image centre, px) with its own expansion e_labels[k] (labels all 0 for K = 1):
@@ -302,7 +301,7 @@ def rotation_normal(previous, target, x, y, labels, parameters, focal, robust_sc
     return normal, gradient
 
 
-@numba.njit(**_FAST)
+@numba.njit(**_JIT)
 def rotation_cost(previous, target, x, y, labels, parameters, focal, robust_scale):
     """Eq. R2's mean Huber cost over the pixels that land inside the previous image, and their share:
     (cost, support)."""
@@ -312,7 +311,7 @@ def rotation_cost(previous, target, x, y, labels, parameters, focal, robust_scal
     return sums[21] / max(sums[22], 1.0), sums[22] / max(count, 1)
 
 
-@numba.njit(**_FAST)
+@numba.njit(**_JIT)
 def rotation_solve(previous, target, x, y, labels, start, focal, robust_scale, iterations, damping, tolerance):
     """Gauss–Newton on eq. R2 from ``start`` (yaw, pitch, e_0 … e_{K−1}), at most ``iterations`` times, until the
     yaw and pitch updates are below ``tolerance`` rad; the normal equations damped by ``damping`` × identity.

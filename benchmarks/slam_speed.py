@@ -16,6 +16,7 @@ Run: ``python benchmarks/slam_speed.py [--frames N] [--templates 100 1000 10000]
   and the median's ratio to the typical step;
 - the **resolutions**: the typical step on the car park rendered at 160×120, 320×240 and 640×480, and each
   one's ratio to 160×120 (``odometry.working_width`` sets the size the alignments run at);
+- whether the compiled loops run on the **vector units** (:mod:`neuroslam.compiled`);
 - the **alignment passes** per frame (each a pass over a few thousand pixels: a Gauss–Newton iteration or a
   cost), median and maximum, on the car park and on novel frames: the odometry's bounded work;
 - each **component** with the map filled to each ``--templates`` count (random templates, experiences in a
@@ -209,6 +210,12 @@ def headline(count: int) -> None:
     unit_after = calibration_ms()
     print(f"calibration workload: {unit:.2f} ms before, {unit_after:.2f} ms after (the first is the unit of "
           "the 'x cal.' column)")
+    try:
+        from neuroslam.compiled import vectorised
+        vector = "yes" if vectorised() else "no (slower; same results)"
+    except ImportError:  # a baseline checkout from before neuroslam.compiled
+        vector = "n/a"
+    print(f"compiled loops on the vector units (ordered reductions): {vector}")
     print("alignment passes per frame (floor / rotation), median and maximum")
     for label, passes in (("car park", typical_passes), ("novel frames", novel_passes)):
         print(f"  {label:<46}{np.median(passes[:, 0]):5.0f} / {np.median(passes[:, 1]):3.0f}   "

@@ -2,12 +2,16 @@
 
 Each reference below is eq. G1–G3 or eq. R1–R2 term by term over whole arrays, in float64; the compiled
 loops must give the same numbers to their rounding: they compute each pixel in float32 and sum a few thousand
-terms in float32 (reordered for the vector units), so their sums carry a relative error of about
+terms in float32 (in the loop's order), so their sums carry a relative error of about
 sqrt(N) × 6e-8 ≈ 3e-6 of the sum of the terms' magnitudes (1e-5 is allowed: cancelling terms make the sum
 smaller than that magnitude).
 """
 
 import math
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -173,6 +177,44 @@ def test_rotation_solve_recovers_a_pure_rotation():
     _, _, capped = rotation_solve(previous, target, x[region], y[region], labels, np.zeros(3), FOCAL, 0.05, 2, 1e-2,
                                   0.0)
     assert capped == 2
+
+
+def _fingerprint() -> str:
+    """Every number of a few floor and rotation alignments (several iterations each, on random smooth images),
+    as exact hexadecimal floats: equal strings mean bit-for-bit equal results."""
+    old, new = _stack(2), _stack(3)
+    v, u = np.mgrid[70:119, 1:159:2]
+    u, v = u.ravel().astype(float), v.ravel().astype(float)
+    depth = 0.5 * FOCAL / (v - 59.5)
+    qx, qy = (depth + 0.1).astype(np.float32), (-(u - 79.5) * depth / FOCAL).astype(np.float32)
+    target = new[0][v.astype(int), u.astype(int)]
+    numbers = []
+    for distance, turn, crosswise in ((0.0, 0.0, 0.0), (0.08, 0.03, 0.25), (-0.05, -0.06, 0.25)):
+        numbers += ground_align(old, target, qx, qy, np.ones_like(qx), FOCAL, 79.5, 59.5, 0.5, 0.1, distance, turn,
+                                0.02, -0.01, 6.25, 1.0, 6.25, 0.0, crosswise, 0.05, 10, 1.0, False)
+    previous, current = _stack(4)[:, 20:100, 20:140].copy(), _stack(5)[:, 20:100, 20:140].copy()
+    y, x = (np.mgrid[0:80, 0:120] - np.array([39.5, 59.5])[:, None, None]).reshape(2, -1).astype(np.float32)
+    labels = (2 * (y >= 0) + (x >= 0)).astype(np.intp)
+    for start in (np.zeros(3), np.array([0.02, -0.01, 0.0, 0.0, 0.0, 0.0])):
+        parameters, information, done = rotation_solve(previous, current[0].ravel(), x, y,
+                                                       labels if len(start) == 6 else labels * 0, start, FOCAL,
+                                                       0.05, 8, 1e-2, 0.0)
+        numbers += [*parameters, *information, done]
+    return " ".join(float(number).hex() for number in numbers)
+
+
+def test_the_vectorised_loops_give_the_scalar_loops_numbers_bit_for_bit(tmp_path):
+    """With LLVM's ordered reductions (:mod:`neuroslam.compiled`) the per-pixel loops run on the vector units and
+    keep each sum's order: their numbers equal, bit for bit, those of the same loops compiled without it (in a
+    process of its own, with an empty numba cache so nothing compiled here is loaded there)."""
+    scalar_script = ("import llvmlite.binding; llvmlite.binding.set_option = lambda *args: None; "  # left unset
+                     "import sys; sys.path.insert(0, sys.argv[1]); import test_kernels; "
+                     "from neuroslam.compiled import vectorised; print(vectorised(), test_kernels._fingerprint())")
+    environment = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    scalar = subprocess.run([sys.executable, "-c", scalar_script, str(Path(__file__).parent)], env=environment,
+                            capture_output=True, text=True, check=True, timeout=300).stdout.split()
+    assert scalar[0] == "False"  # compiled there, without the option: scalar
+    assert " ".join(scalar[1:]) == _fingerprint()
 
 
 def test_the_grid_networks_recurrent_input_from_quarter_sheets_is_the_masked_sheets():

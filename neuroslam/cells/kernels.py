@@ -16,10 +16,13 @@ import math
 import numba
 import numpy as np
 
+from ..compiled import JIT as _JIT
+from ..compiled import enable_ordered_reductions
+
 __all__ = ["circular_means", "euler_step", "inhibit_and_normalise", "multiply_spectrum", "phase_ramp",
            "polyphase_recurrence", "shift_normal_equations"]
 
-_JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
+enable_ordered_reductions()  # before the first compilation: loops ending in sums may use the vector units
 
 
 @numba.njit(**_JIT)

@@ -87,6 +87,26 @@ def circular_means(activity, peak, radius, cosines, sines):
 
 
 @numba.njit(**_JIT)
+def _four_products(kernel_pairs, spectrum_pairs, out_pairs, k, column, p, q, sign):
+    """out[k, column] = Σ_d K_d[k, column] · S_d[p, q] (each S_d conjugated where ``sign`` is −1), on the arrays'
+    float32 (real, imaginary) views, summed over d = 0 … 3 in order as complex arithmetic would."""
+    k0_re, k0_im = kernel_pairs[0, k, 2 * column], kernel_pairs[0, k, 2 * column + 1]
+    k1_re, k1_im = kernel_pairs[1, k, 2 * column], kernel_pairs[1, k, 2 * column + 1]
+    k2_re, k2_im = kernel_pairs[2, k, 2 * column], kernel_pairs[2, k, 2 * column + 1]
+    k3_re, k3_im = kernel_pairs[3, k, 2 * column], kernel_pairs[3, k, 2 * column + 1]
+    s0_re, s0_im = spectrum_pairs[0, p, 2 * q], sign * spectrum_pairs[0, p, 2 * q + 1]
+    s1_re, s1_im = spectrum_pairs[1, p, 2 * q], sign * spectrum_pairs[1, p, 2 * q + 1]
+    s2_re, s2_im = spectrum_pairs[2, p, 2 * q], sign * spectrum_pairs[2, p, 2 * q + 1]
+    s3_re, s3_im = spectrum_pairs[3, p, 2 * q], sign * spectrum_pairs[3, p, 2 * q + 1]
+    re = (((k0_re * s0_re - k0_im * s0_im) + (k1_re * s1_re - k1_im * s1_im)) + (k2_re * s2_re - k2_im * s2_im)
+          + (k3_re * s3_re - k3_im * s3_im))
+    im = (((k0_re * s0_im + k0_im * s0_re) + (k1_re * s1_im + k1_im * s1_re)) + (k2_re * s2_im + k2_im * s2_re)
+          + (k3_re * s3_im + k3_im * s3_re))
+    out_pairs[k, 2 * column] = re
+    out_pairs[k, 2 * column + 1] = im
+
+
+@numba.njit(**_JIT)
 def polyphase_recurrence(small_spectra, kernels):
     """The recurrent input's spectrum of the grid network (grid-network eqs. 1–2): Σ_d K_d · FFT(mask_d · s), from
     the real FFTs of the four sub-sheets s[r::2, c::2] (``small_spectra``: (4, m, m // 2 + 1), direction
@@ -95,22 +115,24 @@ def polyphase_recurrence(small_spectra, kernels):
     sub-sheet's neurons make its spectrum repeat); that phase is folded into ``kernels`` ((4, n, n // 2 + 1):
     K_d times it), and S_d beyond m // 2 columns is the complex conjugate of its mirror (the sub-sheet is
     real). Returns the (n, n // 2 + 1) spectrum."""
-    directions, rows, columns = kernels.shape
+    rows, columns = kernels.shape[1], kernels.shape[2]
     m = small_spectra.shape[1]
     half = m // 2
-    whole = np.empty((directions, m, m), dtype=kernels.dtype)  # each sub-sheet's full spectrum
-    for d in range(directions):
-        for p in range(m):
-            mirrored = (m - p) % m
-            for q in range(m):
-                whole[d, p, q] = small_spectra[d, p, q] if q <= half else np.conj(small_spectra[d, mirrored, m - q])
+    # complex arithmetic written out on float32 (real, imaginary) pairs in complex multiplication's own order (the
+    # same numbers bit for bit), the columns in three branch-free runs: half the time of a complex64 loop here
+    kernel_pairs, spectrum_pairs = kernels.view(np.float32), small_spectra.view(np.float32)
     out = np.empty((rows, columns), dtype=kernels.dtype)
+    out_pairs = out.view(np.float32)
+    one = np.float32(1.0)
     for k in range(rows):
         p = k % m
-        for column in range(columns):
-            q = column % m
-            out[k, column] = (kernels[0, k, column] * whole[0, p, q] + kernels[1, k, column] * whole[1, p, q]
-                         + kernels[2, k, column] * whole[2, p, q] + kernels[3, k, column] * whole[3, p, q])
+        mirrored = (m - p) % m
+        for column in range(half + 1):  # the sub-sheets' own columns
+            _four_products(kernel_pairs, spectrum_pairs, out_pairs, k, column, p, column, one)
+        for column in range(half + 1, m):  # beyond them: the complex conjugate of the mirror
+            _four_products(kernel_pairs, spectrum_pairs, out_pairs, k, column, mirrored, m - column, -one)
+        for column in range(m, columns):  # the whole sheet's last column: the spectrum repeats
+            _four_products(kernel_pairs, spectrum_pairs, out_pairs, k, column, p, column - m, one)
     return out
 
 
@@ -126,6 +148,15 @@ def euler_step(activity, recurrent, drive, rate):
 
 
 @numba.njit(**_JIT)
+def _shift_terms(moved, target, i, up, down, j, left, right, s00, s01, s11, r0, r1):
+    """:func:`shift_normal_equations`' sums with the cell (i, j) added (its neighbours' indices given)."""
+    g0 = (moved[down, j] - moved[up, j]) / 2
+    g1 = (moved[i, right] - moved[i, left]) / 2
+    residual = target[i, j] - moved[i, j]
+    return s00 + g0 * g0, s01 + g0 * g1, s11 + g1 * g1, r0 + g0 * residual, r1 + g1 * residual
+
+
+@numba.njit(**_JIT)
 def shift_normal_equations(moved, target):
     """The read-out's Gauss–Newton system (grid-network paper, Table I, refined below a cell): with the central
     differences g_0, g_1 of ``moved`` along its two axes (wrapping around), the normal matrix
@@ -134,16 +165,14 @@ def shift_normal_equations(moved, target):
     s00 = s01 = s11 = r0 = r1 = 0.0
     for i in range(rows):
         up, down = (i - 1) % rows, (i + 1) % rows
-        for j in range(columns):
-            left, right = (j - 1) % columns, (j + 1) % columns
-            g0 = (moved[down, j] - moved[up, j]) / 2
-            g1 = (moved[i, right] - moved[i, left]) / 2
-            residual = target[i, j] - moved[i, j]
-            s00 += g0 * g0
-            s01 += g0 * g1
-            s11 += g1 * g1
-            r0 += g0 * residual
-            r1 += g1 * residual
+        # the columns in order, the wrapped neighbours of the first and last apart: the inner run without a modulo
+        s00, s01, s11, r0, r1 = _shift_terms(moved, target, i, up, down, 0, columns - 1, 1 % columns,
+                                             s00, s01, s11, r0, r1)
+        for j in range(1, columns - 1):
+            s00, s01, s11, r0, r1 = _shift_terms(moved, target, i, up, down, j, j - 1, j + 1, s00, s01, s11, r0, r1)
+        if columns > 1:
+            s00, s01, s11, r0, r1 = _shift_terms(moved, target, i, up, down, columns - 1, columns - 2, 0,
+                                                 s00, s01, s11, r0, r1)
     return np.array([[s00, s01], [s01, s11]]), -np.array([r0, r1])
 
 

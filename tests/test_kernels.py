@@ -180,8 +180,9 @@ def test_rotation_solve_recovers_a_pure_rotation():
 
 
 def _fingerprint() -> str:
-    """Every number of a few floor and rotation alignments (several iterations each, on random smooth images),
-    as exact hexadecimal floats: equal strings mean bit-for-bit equal results."""
+    """Every number of a few floor and rotation alignments (several iterations each, on random smooth images)
+    and of the grid network's compiled loops, as exact hexadecimal floats: equal strings mean bit-for-bit
+    equal results."""
     old, new = _stack(2), _stack(3)
     v, u = np.mgrid[70:119, 1:159:2]
     u, v = u.ravel().astype(float), v.ravel().astype(float)
@@ -200,6 +201,17 @@ def _fingerprint() -> str:
                                                        labels if len(start) == 6 else labels * 0, start, FOCAL,
                                                        0.05, 8, 1e-2, 0.0)
         numbers += [*parameters, *information, done]
+    # the grid network's loops (neuroslam.cells.kernels): a random sheet's recurrent spectrum and read-out sums
+    from scipy import fft
+
+    from neuroslam.cells.kernels import polyphase_recurrence, shift_normal_equations
+    rng = np.random.default_rng(7)
+    sheet, target = rng.random((2, 16, 16), dtype=np.float32)
+    sub_sheets = sheet.reshape(8, 2, 8, 2).transpose(1, 3, 0, 2).reshape(4, 8, 8)
+    kernels = (rng.standard_normal((4, 16, 9)) + 1j * rng.standard_normal((4, 16, 9))).astype(np.complex64)
+    spectrum = polyphase_recurrence(fft.rfft2(sub_sheets), kernels)
+    normal, right = shift_normal_equations(sheet, target)
+    numbers += [*spectrum.real.ravel(), *spectrum.imag.ravel(), *normal.ravel(), *right]
     return " ".join(float(number).hex() for number in numbers)
 
 

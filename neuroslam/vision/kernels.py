@@ -301,18 +301,24 @@ def _expansions(parameters):
     return out
 
 
+@numba.njit(inline="always", **_JIT)
+def _rotation_pass(previous, target, x, y, labels, parameters, focal, robust_scale):
+    """:func:`_rotation_sums` at ``parameters`` (yaw, pitch, e) or (yaw, pitch, e_0 … e_3), in the form compiled
+    for their number of expansions."""
+    if parameters.shape[0] == 3:
+        return _rotation_sums_single(previous, target, x, y, labels, parameters[0], parameters[1],
+                                     _expansions(parameters), focal, robust_scale)
+    return _rotation_sums_quadrants(previous, target, x, y, labels, parameters[0], parameters[1],
+                                    _expansions(parameters), focal, robust_scale)
+
+
 @numba.njit(**_JIT)
 def rotation_normal(previous, target, x, y, labels, parameters, focal, robust_scale):
     """The Huber-weighted normal equations of eq. R2 at ``parameters`` = (yaw, pitch, e_0 … e_{K−1}) (K = 1 or 4),
     each pixel (x, y from the image centre, px) with its own expansion e_labels[k] (labels all 0 for K = 1):
     (normal (2+K, 2+K), gradient (2+K))."""
     size = parameters.shape[0]
-    if parameters.shape[0] == 3:
-        sums = _rotation_sums_single(previous, target, x, y, labels, parameters[0], parameters[1],
-                                     _expansions(parameters), focal, robust_scale)
-    else:
-        sums = _rotation_sums_quadrants(previous, target, x, y, labels, parameters[0], parameters[1],
-                                        _expansions(parameters), focal, robust_scale)
+    sums = _rotation_pass(previous, target, x, y, labels, parameters, focal, robust_scale)
     normal = np.zeros((size, size))
     gradient = np.zeros(size)
     normal[0, 0], normal[0, 1], normal[1, 1] = sums[0], sums[1], sums[2]
@@ -333,12 +339,7 @@ def rotation_normal(previous, target, x, y, labels, parameters, focal, robust_sc
 def rotation_cost(previous, target, x, y, labels, parameters, focal, robust_scale):
     """Eq. R2's mean Huber cost over the pixels that land inside the previous image, and their share:
     (cost, support)."""
-    if parameters.shape[0] == 3:
-        sums = _rotation_sums_single(previous, target, x, y, labels, parameters[0], parameters[1],
-                                     _expansions(parameters), focal, robust_scale)
-    else:
-        sums = _rotation_sums_quadrants(previous, target, x, y, labels, parameters[0], parameters[1],
-                                        _expansions(parameters), focal, robust_scale)
+    sums = _rotation_pass(previous, target, x, y, labels, parameters, focal, robust_scale)
     count = target.shape[0]
     return sums[21] / max(sums[22], 1.0), sums[22] / max(count, 1)
 

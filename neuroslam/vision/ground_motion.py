@@ -85,8 +85,8 @@ their image motion:
 error, a texture whose gradients point every way loses about 0.2 % of its information (measured on the
 testbed's textured floors: 99 % kept; the urban world's thin far lines, which cross the path, count on
 2,992 of its 2,993 seeing frames), while the blank ramp's falls from 0.7-1.4 to 0.04-0.2 of the prior's
-weight, below ``min_information``. Eq. G6 only decides; the solution uses every pixel. It is off by default
-(``odometry.floor_aperture`` 0): see that setting for why.
+weight, below ``min_information``. Eq. G6 only decides; the solution uses every pixel. The odometry's
+default is 10° (``odometry.floor_aperture``; see that setting for what it does over the benchmark).
 """
 
 from __future__ import annotations
@@ -162,8 +162,8 @@ class GroundMotion:
             floor pixel below ``first_row``. Only for the floor (a ceiling's plane has no lane).
         aperture: rad; a pixel counts towards the information on the distance (eq. G6, what
             ``min_information`` is compared with) only where its image gradient lies more than this from
-            perpendicular to the image motion a forward step gives it. 0 (the default) counts every pixel;
-            the odometry passes ``odometry.floor_aperture`` (off by default, see there).
+            perpendicular to the image motion a forward step gives it. 0 (this class's default) counts every
+            pixel; the odometry passes ``odometry.floor_aperture`` (10°, see there).
         levels: resolution levels, each half the previous (2: half, then full resolution), each blurred
             by ``smoothing`` of its own pixels; the coarsest sets how far the motion may be from the
             previous frame's and still be found (0.1 m, or 0.08 m with 0.06 rad, from rest at 160 x 120

@@ -2,7 +2,7 @@
 
 Run: ``python benchmarks/exact_odometry.py RUN [--force]``, where ``RUN`` is a folder written by
 ``benchmarks/generalization.py`` (it reads ``RUN/drives/*/{map.npz, groundtruth.tum, metrics.json}``). A
-measurement, not a test: it asserts nothing and is not part of the pytest run. About 30 s a drive here.
+measurement, not a test: it asserts nothing and is not part of the pytest run. A few seconds a drive here.
 
 ``benchmarks/closure_reference.py`` keeps a drive's odometry and closes every loop exactly; this is its
 complement: it keeps the map's own loop closures and makes the odometry exact. Per drive, the final map's

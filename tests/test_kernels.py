@@ -157,6 +157,24 @@ def test_rotation_normal_equations_match_finite_differences(count):
     assert support == pytest.approx(visible.mean())
 
 
+def test_the_one_expansion_pass_is_the_quadrant_pass_with_one_label():
+    """The rotation pass compiled for one expansion (every call but ``quadrant_yaw``) gives, bit for bit, the
+    numbers of the quadrant form with every pixel in quadrant 0 and its expansion in all four."""
+    previous, current = _stack(4), _stack(5)
+    v, u = np.mgrid[24:96:2, 16:144:2]
+    x, y = (u.ravel() - 79.5).astype(np.float32), (v.ravel() - 59.5).astype(np.float32)
+    labels = np.zeros(len(x), dtype=np.intp)
+    target = current[0][v.ravel(), u.ravel()]
+    single = np.array([0.02, -0.01, 0.01])
+    quadrants = np.array([0.02, -0.01, 0.01, 0.01, 0.01, 0.01])
+    normal, gradient = rotation_normal(previous, target, x, y, labels, single, FOCAL, 0.05)
+    normal4, gradient4 = rotation_normal(previous, target, x, y, labels, quadrants, FOCAL, 0.05)
+    assert np.array_equal(normal, normal4[:3, :3]) and np.array_equal(gradient, gradient4[:3])
+    assert not normal4[3:].any() and not gradient4[3:].any()  # quadrants 1-3 hold no pixel
+    assert rotation_cost(previous, target, x, y, labels, single, FOCAL, 0.05) == rotation_cost(
+        previous, target, x, y, labels, quadrants, FOCAL, 0.05)
+
+
 def test_rotation_solve_recovers_a_pure_rotation():
     """A frame rendered from the previous one by a known yaw and pitch (eq. R1 with e = 0) is aligned back to
     them within 1e-4 rad, and the iterations stop at the cap."""

@@ -1,5 +1,5 @@
 """The MuJoCo testbed of neuroslam: multi-level worlds, a wheeled robot, its camera, scripted drives and
-gymnasium environments (``NeuroSLAM/Drive-v0``, ``NeuroSLAM/PointNav-v0``).
+gymnasium environments (``NeuroSLAM/Drive-v0``, ``NeuroSLAM/PointNav-v1``, ``NeuroSLAM/SequentialPointNav-v0``).
 
 Importing ``sim`` selects headless rendering (``MUJOCO_GL=egl``) unless the user chose a backend already;
 import it before anything imports ``mujoco``. It also asks Mesa's software rasteriser (llvmpipe, the renderer
@@ -44,9 +44,11 @@ __all__ = [
     "Simulation", "WheelOdometry", "World", "WorldError", "builtin_worlds", "load_world", "parse_routes",
 ]
 
-for _id, _entry_point, _steps in (
-    ("NeuroSLAM/Drive-v0", "sim.envs:DriveEnv", 1000),
-    ("NeuroSLAM/PointNav-v0", "sim.envs:PointNavEnv", 1500),
+for _id, _entry_point, _steps, _kwargs in (
+    ("NeuroSLAM/Drive-v0", "sim.envs:DriveEnv", 1000, {}),
+    ("NeuroSLAM/PointNav-v1", "sim.envs:PointNavEnv", 1500, {}),
+    # goals in a row with no reset between them; each goal is bounded by goal_steps, so no time limit
+    ("NeuroSLAM/SequentialPointNav-v0", "sim.envs:PointNavEnv", None, {"goals": 50}),
 ):
     if _id not in registry:
-        register(id=_id, entry_point=_entry_point, max_episode_steps=_steps)
+        register(id=_id, entry_point=_entry_point, max_episode_steps=_steps, kwargs=_kwargs)

@@ -1,6 +1,6 @@
 """Gymnasium environments: free driving and point-goal navigation in the multi-level worlds.
 
-Both are registered on ``import sim`` as ``NeuroSLAM/Drive-v0`` and ``NeuroSLAM/PointNav-v0``. The
+Both are registered on ``import sim`` as ``NeuroSLAM/Drive-v0`` and ``NeuroSLAM/PointNav-v1``. The
 MuJoCo renderer is created on the first observation, never in ``__init__``, so vector environments work;
 use ``context="spawn"`` or ``"forkserver"`` for :class:`gymnasium.vector.AsyncVectorEnv` (a GL context
 must not cross a fork).
@@ -15,71 +15,14 @@ from typing import Any, ClassVar
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import dijkstra
-from scipy.spatial import cKDTree
 
 from .errors import InvalidParameterError
+from .navigation import DrivableGraph
 from .robot import CameraConfig, RobotConfig
 from .simulation import OdometryNoise, Quality, Simulation
 from .world import World, load_world
 
-__all__ = ["DriveEnv", "PointNavEnv", "RouteGraph"]
-
-
-class RouteGraph:
-    """The drivable network of a world: every route densely sampled, nearby samples joined.
-
-    Nodes are points every ``spacing`` metres along all routes; edges join consecutive samples and any
-    two samples closer than ``join`` metres (where routes overlap or cross, or lanes run side by side;
-    the builders keep lanes on either side of a wall at least 2.8 m apart). Ramps are part of the routes,
-    so shortest paths between levels go over them. Distances are metres, 3-D.
-    """
-
-    def __init__(self, world: World, *, spacing: float = 0.5, join: float = 1.5):
-        self.join = join
-        points, rows, columns = [], [], []
-        offset = 0
-        for route in world.routes.values():
-            count = max(2, math.ceil(route.length / spacing) + (0 if route.loop else 1))
-            distances = np.linspace(0.0, route.length, count, endpoint=not route.loop)
-            samples = route.point_at(distances)
-            points.append(samples)
-            index = np.arange(offset, offset + count)
-            rows.append(index[:-1])
-            columns.append(index[1:])
-            if route.loop:
-                rows.append(index[-1:])
-                columns.append(index[:1])
-            offset += count
-        self.points = np.vstack(points)
-        self.tree = cKDTree(self.points)
-        near = np.array(sorted(self.tree.query_pairs(join)), dtype=int).reshape(-1, 2)
-        i = np.concatenate([*rows, near[:, 0]])
-        j = np.concatenate([*columns, near[:, 1]])
-        weights = np.linalg.norm(self.points[i] - self.points[j], axis=1) + 1e-9
-        self.adjacency = coo_matrix((weights, (i, j)), shape=(len(self.points),) * 2).tocsr()
-
-    def distances_from(self, node: int) -> np.ndarray:
-        """Shortest drivable distance from ``node`` to every node, m."""
-        return dijkstra(self.adjacency, directed=False, indices=node)
-
-    def nearest(self, position: np.ndarray) -> int:
-        """Index of the node nearest to ``position`` (3-D)."""
-        return int(self.tree.query(position)[1])
-
-    def distance_to(self, field: np.ndarray, position: np.ndarray, *, candidates: int = 16) -> float:
-        """Drivable distance from ``position`` given a field of node distances (from :meth:`distances_from`).
-
-        The robot joins the network at whichever node within ``join`` metres on its own level (less than
-        0.5 m higher or lower) gives the shortest total: straight line to the node, then the network.
-        A robot farther from the network joins it at the nearest node.
-        """
-        gaps, nodes = self.tree.query(position, k=min(candidates, len(self.points)))
-        usable = (gaps <= self.join) & (np.abs(self.points[nodes, 2] - position[2]) < 0.5)
-        if not usable.any():
-            return float(gaps[0] + field[nodes[0]])
-        return float(np.min(gaps[usable] + field[nodes[usable]]))
+__all__ = ["DriveEnv", "PointNavEnv"]
 
 
 def _finite_vector(value: Any, size: int, field: str, reason: str) -> np.ndarray:
@@ -221,9 +164,9 @@ class DriveEnv(gym.Env):
         truth = self.simulation.ground_truth()
         _w, x, y, _z = truth.quaternion
         tipped = (1 - 2 * (x * x + y * y)) < math.cos(math.radians(45))  # body z-axis tilted > 45 degrees
-        reward, terminated = self._reward_and_termination(truth)
+        reward, terminated, truncated = self._task_step(truth, tipped)
         observation, info = self._observation(), self._info()
-        return observation, float(reward), bool(terminated or tipped), False, info
+        return observation, float(reward), bool(terminated or tipped), bool(truncated and not tipped), info
 
     def render(self):
         if self.render_mode == "rgb_array":
@@ -243,8 +186,9 @@ class DriveEnv(gym.Env):
     def _after_reset(self) -> None:
         pass
 
-    def _reward_and_termination(self, truth) -> tuple[float, bool]:
-        return 0.0, False
+    def _task_step(self, truth, tipped: bool) -> tuple[float, bool, bool]:
+        """The task's reward, termination and truncation after a step (the robot's truth, whether it tipped)."""
+        return 0.0, False, False
 
     def _sample_start(self) -> np.ndarray:
         distances = np.arange(0.0, self.route.length, 0.25)
@@ -286,13 +230,24 @@ class DriveEnv(gym.Env):
         }
 
 
+OUTCOMES = ("success", "stalled", "timeout", "unreachable", "tipped")  # how a goal ends (info["goal_outcome"])
+
+
 class PointNavEnv(DriveEnv):
     """## Description
     Point-goal navigation across levels: drive to a goal that may be on another floor, reached over the
     ramps. With ``goal_sensor="gps"`` (the default), like Habitat's PointGoal with GPS+compass, the goal's
     position relative to the robot is observed every step; with ``goal_sensor="start"`` (Habitat's harder
-    setting since 2020) only in the observation ``reset`` returns, and zeros afterwards, so the agent must
-    track itself.
+    setting since 2020) only when the goal is given (in the observation ``reset`` returns, and the one after
+    a new goal of a sequence), zeros otherwise, so the agent must track itself.
+
+    With ``goals=N`` (``NeuroSLAM/SequentialPointNav-v0``, default 50) the robot drives N goals in a row:
+    when one ends, the next is drawn from wherever the robot is, and nothing is reset (not the pose, not the
+    wheel odometry, not the clock), the long-horizon setting in which a robot's odometry drifts without bound.
+
+    Everything is measured on one graph, the drivable surface derived from the world's geometry
+    (:class:`sim.navigation.DrivableGraph`, ramp-aware, decks and mezzanines included): start and goal
+    sampling, the reward, the geodesic of SPL, and the planner of ``neuroslam nav``.
 
     ## Action Space
     As ``NeuroSLAM/Drive-v0``: (forward speed m/s, yaw rate rad/s), clipped to the robot's range.
@@ -303,29 +258,47 @@ class PointNavEnv(DriveEnv):
     positive, in [-pi, pi]) and its height above the robot (m).
 
     ## Rewards
-    Progress along the drivable shortest path (metres of geodesic distance gained this step, on the
-    world's route network including ramps), minus 0.01 per step, plus 2.5 on success.
+    Progress along the drivable shortest path (metres of geodesic distance gained this step), minus 0.01
+    per step, plus 2.5 on reaching a goal. A new goal of a sequence starts from its own distance (no reward
+    for the switch).
 
     ## Starting State
-    Start and goal are points of the world's route network on a floor (not on a ramp) drawn from the
-    ``reset`` seed, with a drivable
-    distance between ``min_goal_distance`` and ``max_goal_distance``; the robot faces along the route.
-    ``options={"start": [x, y, z, yaw], "goal": [x, y, z]}`` sets either explicitly.
+    The start is a standing place of the drivable graph (flat, not on a ramp, with room to turn) drawn
+    from the ``reset`` seed, facing a direction drawn uniformly; the goal a standing place at a drivable
+    distance between ``min_goal_distance`` and ``max_goal_distance`` (the farthest one in a smaller world).
+    ``options={"start": [x, y, z, yaw], "goal": [x, y, z]}`` sets either explicitly; a given goal that no
+    drivable path comes within ``success_distance`` of is reported (``info["goal_reachable"]`` False) and
+    ends at the first step with the outcome ``unreachable``.
 
     ## Episode End
-    ``terminated`` on success (within ``success_distance`` = 1 m of the goal) or when the robot tips over;
-    ``truncated`` by the time limit (1500 steps = 150 s at 10 Hz).
+    A goal ends with an outcome (``info["goal_outcome"]``): ``success`` within ``success_distance`` = 1 m;
+    ``stalled`` when the robot has stayed within ``stall_distance`` (0.25 m) of one point for
+    ``stall_steps`` steps (100 = 10 s at 10 Hz: it is stuck or has given up); ``timeout`` after
+    ``goal_steps`` steps on it (sequences only; default 1500); ``unreachable``; ``tipped`` (roll or pitch
+    beyond 45 degrees). The episode ends with its last goal (``goals``), or at once when the robot tips:
+    ``terminated`` when that goal was reached or the robot tipped, ``truncated`` otherwise (a stall is a
+    failure but not a terminal state). The registration's time limit also truncates: 1500 steps for
+    ``PointNav-v1``, none for ``SequentialPointNav-v0`` (its goals are bounded by ``goal_steps``).
 
     ## Info
-    Everything ``NeuroSLAM/Drive-v0`` reports, plus ``goal`` (x, y, z), ``distance_to_goal`` (drivable,
-    m), ``success`` (bool), ``spl`` (success weighted by path length: success × geodesic start distance /
-    max(path driven, geodesic start distance)), ``path_length`` (m driven).
+    Everything ``NeuroSLAM/Drive-v0`` reports, plus ``goal`` (x, y, z), ``goal_index`` (0-based),
+    ``goal_reachable``, ``geodesic`` (the drivable distance from where this goal was given, m),
+    ``distance_to_goal`` (drivable, m), ``success`` (this goal reached), ``spl`` (success × geodesic /
+    max(path driven, geodesic)), ``path_length`` (m driven toward this goal), ``goal_steps`` (steps on it),
+    ``goal_finished`` and ``goal_outcome`` (empty while it runs). On the step a goal ends, these figures are
+    that goal's final ones, and ``next_goal`` (x, y, z) gives the next goal of a sequence, which the
+    observation already shows.
 
     ## Arguments
-    As ``NeuroSLAM/Drive-v0``, plus ``success_distance``, ``min_goal_distance`` and ``max_goal_distance`` (m),
-    and ``goal_sensor`` (``"gps"`` or ``"start"``).
+    As ``NeuroSLAM/Drive-v0``, plus ``success_distance``, ``min_goal_distance`` and ``max_goal_distance``
+    (m), ``goal_sensor`` (``"gps"`` or ``"start"``), ``goals`` (goals per episode), ``goal_steps`` (steps
+    per goal before ``timeout``; None for no limit), ``stall_steps`` (None: never stall) and
+    ``stall_distance`` (m).
 
     ## Version History
+    * v1: starts, goals, reward and SPL on the drivable graph derived from the geometry (v0 used the route
+      network: two geodesics for one episode); stalls end an episode; sequences of goals; the start faces
+      a random direction. v0's scores are not comparable and it is no longer registered.
     * v0: initial version.
     """
 
@@ -339,6 +312,10 @@ class PointNavEnv(DriveEnv):
         min_goal_distance: float = 5.0,
         max_goal_distance: float = 60.0,
         goal_sensor: str = "gps",
+        goals: int = 1,
+        goal_steps: int | None = 1500,
+        stall_steps: int | None = 100,
+        stall_distance: float = 0.25,
         **kwargs: Any,
     ):
         if goal_sensor not in ("gps", "start"):
@@ -348,18 +325,28 @@ class PointNavEnv(DriveEnv):
                 "goal distances", (success_distance, min_goal_distance, max_goal_distance),
                 "need 0 < success_distance < min_goal_distance < max_goal_distance (m)",
             )
+        for field, value in (("goals", goals), ("goal_steps", goal_steps), ("stall_steps", stall_steps)):
+            if value is not None and (not isinstance(value, (int, np.integer)) or isinstance(value, bool)
+                                      or value < 1):
+                raise InvalidParameterError(field, value, "must be a positive whole number"
+                                            + ("" if field == "goals" else " (or None)"))
+        if goals is None:
+            raise InvalidParameterError("goals", goals, "must be a positive whole number")
+        if not isinstance(stall_distance, (int, float)) or not 0 < stall_distance < success_distance:
+            raise InvalidParameterError("stall_distance", stall_distance, "must be between 0 and success_distance (m)")
         super().__init__(world, **kwargs)
         self.success_distance = success_distance
         self.goal_sensor = goal_sensor
-        self._goal_visible = True
         self.min_goal_distance = min_goal_distance
         self.max_goal_distance = max_goal_distance
-        self.graph = RouteGraph(self.world)
-        heights = self.graph.points[:, 2]
-        levels = np.asarray(self.world.levels)[self.world.level_of(heights)]
-        self._floor_nodes = np.flatnonzero(np.abs(heights - levels) < 0.05)  # starts and goals avoid ramps
+        self.goals, self.goal_steps = int(goals), goal_steps
+        self.stall_steps, self.stall_distance = stall_steps, float(stall_distance)
+        self.graph = DrivableGraph.of(self.world)
         self.goal = np.zeros(3)
+        self._goal_visible = True
         self._goal_field = np.zeros(len(self.graph.points))
+        self._goal_index = 0
+        self._finished: dict[str, Any] | None = None  # the figures of a goal that ended this step
 
     def _observation_spaces(self, camera: CameraConfig, limits: np.ndarray) -> dict[str, spaces.Space]:
         bound = np.array([1e4, math.pi, 1e3], dtype=np.float32)
@@ -374,42 +361,82 @@ class PointNavEnv(DriveEnv):
         self._requested_goal = options.pop("goal", None)
 
     def _sample_start(self) -> np.ndarray:
-        node = int(self.np_random.choice(self._floor_nodes))
-        point = self.graph.points[node]
-        neighbour = self.graph.points[(node + 1) % len(self.graph.points)]
-        if np.linalg.norm(neighbour - point) > 1.0:  # the last sample of a route: look back instead
-            neighbour = 2 * point - self.graph.points[node - 1]
-        return np.array([*point, math.atan2(neighbour[1] - point[1], neighbour[0] - point[0])])
+        point = self.graph.points[int(self.np_random.choice(self.graph.standing))]
+        return np.array([*point, float(self.np_random.uniform(-math.pi, math.pi))])
 
     def _after_reset(self) -> None:
+        self._goal_index = 0
+        self._finished = None
+        requested = self._requested_goal
+        self._begin_goal(None if requested is None else _finite_vector(requested, 3, "options.goal",
+                                                                        "must be [x, y, z] in metres"))
+
+    def _begin_goal(self, goal: np.ndarray | None) -> None:
+        """Give the robot a goal (drawn from where it stands when ``goal`` is None) and start its scores."""
         position = self.simulation.ground_truth().position
-        if self._requested_goal is not None:
-            self.goal = _finite_vector(self._requested_goal, 3, "options.goal", "must be [x, y, z] in metres")
-        else:
+        if goal is None:
             field = self.graph.distances_from(self.graph.nearest(position))
-            candidates = field[self._floor_nodes]
+            candidates = field[self.graph.standing]
             in_range = (candidates >= self.min_goal_distance) & (candidates <= self.max_goal_distance)
-            eligible = self._floor_nodes[in_range]
-            if eligible.size == 0:  # a small world: take the farthest floor point
-                eligible = self._floor_nodes[[int(np.argmax(np.where(np.isfinite(candidates), candidates, -1)))]]
-            self.goal = self.graph.points[int(self.np_random.choice(eligible))].copy()
-        self._goal_field = self.graph.distances_from(self.graph.nearest(self.goal))
+            eligible = self.graph.standing[in_range]
+            if eligible.size == 0:  # a small world (or a robot stuck off the graph): the farthest standing place
+                eligible = self.graph.standing[[int(np.argmax(np.where(np.isfinite(candidates), candidates, -1)))]]
+            goal = self.graph.points[int(self.np_random.choice(eligible))].copy()
+        self.goal = np.asarray(goal, dtype=float).copy()
+        self._goal_field = self.graph.goal_field(self.goal, reach=self.success_distance)
         self._distance = self.graph.distance_to(self._goal_field, position)
+        self._reachable = bool(np.isfinite(self._distance))
         self._start_distance = self._distance
         self._path_length = 0.0
+        self._steps_on_goal = 0
         self._last_position = position
+        self._stall_anchor, self._stall_since = position, 0
         self._success = False
-        self._goal_visible = True  # the observation reset returns always shows the goal
+        self._goal_visible = True  # the observation that follows shows the goal, whatever the sensor
 
-    def _reward_and_termination(self, truth) -> tuple[float, bool]:
+    def _task_step(self, truth, tipped: bool) -> tuple[float, bool, bool]:
         position = truth.position
+        self._steps_on_goal += 1
         self._path_length += float(np.linalg.norm(position - self._last_position))
         self._last_position = position
-        distance = self.graph.distance_to(self._goal_field, position)
-        self._success = float(np.linalg.norm(self.goal - position)) <= self.success_distance
-        reward = (self._distance - distance) - 0.01 + (2.5 if self._success else 0.0)
-        self._distance = distance
-        return reward, self._success
+        if np.linalg.norm(position - self._stall_anchor) > self.stall_distance:
+            self._stall_anchor, self._stall_since = position, self._steps_on_goal
+        reward = -0.01
+        if self._reachable:
+            distance = self.graph.distance_to(self._goal_field, position)
+            self._success = float(np.linalg.norm(self.goal - position)) <= self.success_distance
+            reward += (self._distance - distance) + (2.5 if self._success else 0.0)
+            self._distance = distance
+        outcome = None
+        if not self._reachable:
+            outcome = "unreachable"
+        elif self._success:
+            outcome = "success"
+        elif tipped:
+            outcome = "tipped"
+        elif self.stall_steps is not None and self._steps_on_goal - self._stall_since >= self.stall_steps:
+            outcome = "stalled"
+        elif self.goal_steps is not None and self.goals > 1 and self._steps_on_goal >= self.goal_steps:
+            outcome = "timeout"
+        self._finished = None
+        if outcome is None:
+            return reward, False, False
+        self._finished = {**self._goal_report(), "goal_finished": True, "goal_outcome": outcome}
+        success = self._success
+        if tipped or self._goal_index + 1 >= self.goals:
+            return reward, success, not success
+        self._goal_index += 1  # the next goal, from where the robot is; the observation shows it
+        self._begin_goal(None)
+        self._finished["next_goal"] = self.goal.copy()
+        return reward, False, False
+
+    def _goal_report(self) -> dict[str, Any]:
+        """The current goal's figures (see the Info section)."""
+        spl = float(self._success) * self._start_distance / max(self._path_length, self._start_distance, 1e-9)
+        return {"goal": self.goal.copy(), "goal_index": self._goal_index, "goal_reachable": self._reachable,
+                "geodesic": float(self._start_distance), "distance_to_goal": float(self._distance),
+                "success": bool(self._success), "spl": spl, "path_length": float(self._path_length),
+                "goal_steps": self._steps_on_goal, "goal_finished": False, "goal_outcome": ""}
 
     def _observation(self) -> dict[str, np.ndarray]:
         observation = super()._observation()
@@ -425,7 +452,5 @@ class PointNavEnv(DriveEnv):
 
     def _info(self) -> dict[str, Any]:
         info = super()._info()
-        spl = float(self._success) * self._start_distance / max(self._path_length, self._start_distance, 1e-9)
-        info.update(goal=self.goal.copy(), distance_to_goal=float(self._distance), success=bool(self._success),
-                    spl=spl, path_length=float(self._path_length))
+        info.update(self._finished if self._finished is not None else self._goal_report())
         return info

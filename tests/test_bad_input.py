@@ -429,7 +429,7 @@ def test_bad_datasets_are_refused_with_the_file_and_the_reason(tmp_path):
 # environments --------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def pointnav():
-    env = gym.make("NeuroSLAM/PointNav-v0", world="gen:2")
+    env = gym.make("NeuroSLAM/PointNav-v1", world="gen:2")
     yield env
     env.close()
 

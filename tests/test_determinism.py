@@ -72,7 +72,7 @@ ROLLOUT = textwrap.dedent("""
     from neuroslam.lab.wrappers import NeuroSLAMWrapper
 
     seed = int(sys.argv[1])
-    env = NeuroSLAMWrapper(gym.make("NeuroSLAM/PointNav-v0", world="gen:2"))
+    env = NeuroSLAMWrapper(gym.make("NeuroSLAM/PointNav-v1", world="gen:2"))
     digest = hashlib.sha256()
     observation, info = env.reset(seed=seed)
     env.action_space.seed(seed)

@@ -8,9 +8,9 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import sim
-from sim.envs import RouteGraph
+from sim.navigation import DrivableGraph
 
-ENV_IDS = ["NeuroSLAM/Drive-v0", "NeuroSLAM/PointNav-v0"]
+ENV_IDS = ["NeuroSLAM/Drive-v0", "NeuroSLAM/PointNav-v1"]
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
@@ -32,7 +32,7 @@ def test_reset_is_deterministic_in_the_seed(env_id):
         np.testing.assert_array_equal(info_a["pose"], info_b["pose"])
         _, info_c = env.reset(seed=12)
         assert not np.array_equal(info_a["pose"], info_c["pose"])
-        if env_id.endswith("PointNav-v0"):
+        if env_id.endswith("PointNav-v1"):
             np.testing.assert_array_equal(info_a["goal"], info_b["goal"])
     finally:
         env.close()
@@ -57,7 +57,7 @@ def test_observations_are_copies_and_truth_stays_in_info():
 
 
 def test_pointnav_reaches_an_explicit_goal_and_reports_success_and_spl():
-    env = gym.make("NeuroSLAM/PointNav-v0", world="carpark").unwrapped
+    env = gym.make("NeuroSLAM/PointNav-v1", world="carpark").unwrapped
     try:
         start = [-14.0, -12.5, 0.0, 0.0]
         goal = [-6.0, -12.5, 0.0]
@@ -79,20 +79,84 @@ def test_pointnav_reaches_an_explicit_goal_and_reports_success_and_spl():
         env.close()
 
 
-def test_route_graph_distances_go_over_the_ramp():
+def test_the_drivable_distance_goes_over_the_ramp():
     world = sim.load_world("carpark")
-    graph = RouteGraph(world)
-    below = graph.nearest(np.array([-14.0, -12.5, 0.0]))
-    above = graph.nearest(np.array([-14.0, -12.5, 3.0]))
-    distances = graph.distances_from(below)
+    graph = DrivableGraph.of(world)
+    assert DrivableGraph.of(world) is graph  # one graph per world in a process
+    below, above = np.array([-14.0, -12.5, 0.0]), np.array([-14.0, -12.5, 3.0])
+    field = graph.goal_field(above)
     # the way up goes east to the ramp (x = 18.7), climbs it (17.3 m) and comes back west on the deck
-    assert distances[above] > 2 * 30 + 17
-    assert np.all(np.isfinite(distances))  # the network is connected
-    assert math.isclose(graph.distance_to(distances, np.array([-14.0, -12.5, 0.0])), 0.0, abs_tol=0.3)
+    assert graph.distance_to(field, below) > 2 * 30 + 17
+    assert graph.geodesic(below, above) == graph.distance_to(field, below)
+    assert graph.distance_to(field, above) == pytest.approx(0.0, abs=0.3)
+    assert np.all(np.isfinite(graph.distances_from(graph.nearest(below))))  # the drivable area is connected
+
+
+def test_a_goal_off_the_drivable_area_is_reported_and_ends_at_once():
+    """Inside a pillar (the car park's at the origin, 0.6 m wide; nothing drivable within 0.45 m of it) a goal
+    is reachable (within 1 m of a drivable node); 30 m outside the walls it is not."""
+    env = gym.make("NeuroSLAM/PointNav-v1", world="carpark").unwrapped
+    try:
+        start = [-14.0, -12.5, 0.0, 0.0]
+        _, info = env.reset(seed=0, options={"start": start, "goal": [0.0, 0.0, 0.0]})
+        assert info["goal_reachable"] and 14 < info["geodesic"] < 25
+        _, info = env.reset(seed=0, options={"start": start, "goal": [50.0, 0.0, 0.0]})
+        assert not info["goal_reachable"] and info["geodesic"] == math.inf
+        _, reward, terminated, truncated, info = env.step(np.array([1.0, 0.0]))
+        assert (terminated, truncated) == (False, True)
+        assert info["goal_outcome"] == "unreachable" and not info["success"] and reward == -0.01
+    finally:
+        env.close()
+
+
+def test_a_robot_that_stops_ends_its_episode_as_stalled():
+    env = gym.make("NeuroSLAM/PointNav-v1", world="gen:3", stall_steps=30).unwrapped
+    try:
+        env.reset(seed=1)
+        steps = 0
+        while steps < 40:
+            _, _, terminated, truncated, info = env.step(np.array([0.0, 1.0]))  # turning on the spot
+            steps += 1
+            if terminated or truncated:
+                break
+        assert steps == 30 and truncated and not terminated
+        assert info["goal_outcome"] == "stalled" and not info["success"] and info["spl"] == 0.0
+    finally:
+        env.close()
+
+
+def test_a_sequence_gives_the_next_goal_from_where_the_robot_is_without_a_reset():
+    """SequentialPointNav: a goal that ends (here each by stalling, quickly) is followed by the next, drawn
+    from the robot's place; the clock and the wheel odometry run on; the episode ends with the last goal."""
+    env = gym.make("NeuroSLAM/SequentialPointNav-v0", world="gen:3", goals=3, stall_steps=5, goal_sensor="start")
+    try:
+        observation, info = env.reset(seed=4)
+        goals, times, outcomes = [info["goal"]], [], []
+        for _ in range(40):
+            observation, _, terminated, truncated, info = env.step(np.array([0.0, 0.0], dtype=np.float32))
+            times.append(info["time"])
+            if info["goal_finished"]:
+                outcomes.append((info["goal_index"], info["goal_outcome"], info["goal_steps"]))
+                if "next_goal" in info:
+                    goals.append(info["next_goal"])
+                    assert observation["goal"][0] > 0  # the start sensor shows the new goal once
+                    position = info["pose"][:3]
+                    assert np.linalg.norm(info["next_goal"] - position) == pytest.approx(observation["goal"][0],
+                                                                                         abs=1e-4)
+            elif info["goal_index"] > 0:
+                assert np.all(observation["goal"] == 0)
+            if terminated or truncated:
+                break
+        assert outcomes == [(0, "stalled", 5), (1, "stalled", 5), (2, "stalled", 5)]
+        assert truncated and not terminated and len(times) == 15
+        assert np.allclose(np.diff(times), 0.1)  # one clock through all goals
+        assert len({tuple(goal) for goal in goals}) == 3
+    finally:
+        env.close()
 
 
 def test_pointnav_goals_span_levels():
-    env = gym.make("NeuroSLAM/PointNav-v0", world="carpark", max_goal_distance=200.0).unwrapped
+    env = gym.make("NeuroSLAM/PointNav-v1", world="carpark", max_goal_distance=200.0).unwrapped
     try:
         levels = set()
         for seed in range(12):
@@ -107,7 +171,7 @@ def test_pointnav_goals_span_levels():
 @pytest.mark.parametrize("mode", ["sync", "async"])
 def test_vector_env_rollout(mode):
     kwargs = {"context": "spawn"} if mode == "async" else {}
-    envs = gym.make_vec("NeuroSLAM/PointNav-v0", num_envs=2, vectorization_mode=mode, vector_kwargs=kwargs,
+    envs = gym.make_vec("NeuroSLAM/PointNav-v1", num_envs=2, vectorization_mode=mode, vector_kwargs=kwargs,
                         world="gen:3")
     try:
         observations, _ = envs.reset(seed=[1, 2])

@@ -22,13 +22,27 @@ def test_the_ground_truth_planner_reaches_its_goals_on_a_generated_world(tmp_pat
     assert setting["success_rate"] == 1.0 and setting["episodes"] == 3 and len(setting["spl_ci95"]) == 2
 
 
-@pytest.mark.parametrize("agent, pose", [("random", "groundtruth"), ("planner", "odometry"), ("planner", "slam")])
+@pytest.mark.parametrize("agent, pose", [("random", "groundtruth"), ("planner", "odometry"), ("planner", "slam"),
+                                         ("planner", "slam-camera")])
 def test_every_agent_and_pose_source_runs(tmp_path, agent, pose):
     assert main(["nav", "gen:2", "--episodes", "1", "--agent", agent, "--pose", pose, "--max-steps", "60",
                  "--out", str(tmp_path)]) == 0
     (row,) = list(csv.DictReader((tmp_path / "episodes.csv").open()))
     assert row["agent"] == agent and row["pose"] == pose and int(row["steps"]) <= 60
-    assert float(row["final_localisation_error_m"]) >= 0 and float(row["geodesic_m"]) > 0
+    assert float(row["localisation_error_m"]) >= 0 and float(row["geodesic_m"]) > 0
+
+
+def test_a_sequence_drives_its_goals_in_a_row_and_reports_each(tmp_path):
+    """--sequential 3: one episode, three goals from wherever the last ended; a row per goal with the
+    distance driven so far, and the summary's localisation error per goal index."""
+    assert main(["nav", "gen:2", "--sequential", "3", "--episodes", "1", "--out", str(tmp_path)]) == 0
+    rows = list(csv.DictReader((tmp_path / "episodes.csv").open()))
+    assert [row["goal_index"] for row in rows] == ["0", "1", "2"] and {row["seed"] for row in rows} == {"0"}
+    assert all(row["outcome"] == "success" and float(row["spl"]) > 0.9 for row in rows)
+    driven = [float(row["distance_driven_m"]) for row in rows]
+    assert driven == pytest.approx(np.cumsum([float(row["path_length_m"]) for row in rows]))
+    (setting,) = json.loads((tmp_path / "summary.json").read_text())["settings"]
+    assert setting["goals"] == 3 and setting["episodes"] == 1 and setting["localisation_error_by_goal"] == [0, 0, 0]
 
 
 def test_an_unknown_agent_is_refused_before_any_episode(tmp_path):
@@ -37,7 +51,7 @@ def test_an_unknown_agent_is_refused_before_any_episode(tmp_path):
 
 
 def test_the_start_goal_sensor_reads_only_at_reset():
-    env = gym.make("NeuroSLAM/PointNav-v0", world="gen:2", goal_sensor="start")
+    env = gym.make("NeuroSLAM/PointNav-v1", world="gen:2", goal_sensor="start")
     observation, _ = env.reset(seed=0)
     assert observation["goal"][0] > 0
     observation, *_ = env.step(np.array([0.5, 0.0], dtype=np.float32))

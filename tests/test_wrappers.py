@@ -11,7 +11,7 @@ from neuroslam.lab.wrappers import NeuroSLAMWrapper
 
 @pytest.mark.filterwarnings("ignore:.*different from the unwrapped version")  # checking the wrapper is the point
 def test_wrapper_passes_check_env_and_reports_the_estimate():
-    env = NeuroSLAMWrapper(gym.make("NeuroSLAM/PointNav-v0", world="gen:3").unwrapped, add_to_observation=True)
+    env = NeuroSLAMWrapper(gym.make("NeuroSLAM/PointNav-v1", world="gen:3").unwrapped, add_to_observation=True)
     try:
         check_env(env, skip_render_check=True)
         observation, info = env.reset(seed=0)

@@ -1,28 +1,37 @@
-"""Navigation experiments on ``NeuroSLAM/PointNav-v0`` (``neuroslam nav``): agents, pose sources, scores.
+"""Navigation experiments on ``NeuroSLAM/PointNav-v1`` and ``NeuroSLAM/SequentialPointNav-v0``
+(``neuroslam nav``): agents, pose sources, scores.
 
 Glue (it imports the simulator). An episode: the environment is reset with the episode's seed (so every
-setting sees the same start and goal), the agent is told its start pose in the world and the goal (the
-goal sensor's reading at reset, turned into world coordinates through the start pose), and then it acts
-until the episode ends, localising itself with its pose source:
+setting sees the same starts and goals), the agent is told its start pose in the world and the goal (in the
+world: a patrol's goals are places, not readings relative to the robot), and then it acts until the
+episode ends, localising itself with its pose source. In a sequence (``goals`` > 1) each next goal is
+given where the last one ended, with the agent's own pose estimate as its start; nothing is reset.
+
+Pose sources:
 
 - ``groundtruth``: the simulator's pose (the upper bound);
-- ``odometry``: the wheel encoders integrated from the start;
-- ``slam``: NeuroSLAM's estimate from the wheels' speed and turn rate and the camera's views and pitch
-  (the height rate is the wheels' speed times the sine of the camera's pitch; as ``neuroslam drive
-  --odometry wheel``; with a loaded map of an earlier drive of the same world, the session starts in it,
-  ``start="known"``), expressed in the world through the start pose.
+- ``odometry``: the wheel encoders integrated from the start (they measure no height: the start's is kept);
+- ``slam``: :class:`neuroslam.localisation.Localiser` on NeuroSLAM with the wheels' speed and turn rate
+  and the camera's views and pitch (as ``neuroslam drive --odometry wheel``): the wheels' pose, corrected
+  only where NeuroSLAM confirms a recognised place, with its uncertainty; with a loaded map of an earlier
+  drive the session starts as an unknown start and the map's frame is aligned from recognitions;
+- ``slam-camera``: the same with NeuroSLAM's visual odometry as the self-motion (no wheels).
 
 The agent protocol (a user's agent plugs in as ``module:Class``)::
 
     class MyAgent:
         def __init__(self, world, graph, seed): ...      # sim World, sim.navigation.DrivableGraph, int
-        def reset(self, start, goal): ...                # start (x, y, z, yaw), goal (x, y, z): world, m
+        def reset(self, start, goal): ...                # start (x, y, z, yaw): the pose source's at the
+                                                         # goal's start; goal (x, y, z): world, m
         def act(self, observation, pose): ...            # pose: the pose source's (x, y, z, yaw) in the
                                                          # world; returns (forward speed m/s, yaw rate rad/s)
 
-Scores per episode: success (the environment's: within 1 m of the goal), SPL (success × geodesic /
-max(path driven, geodesic), the geodesic on the drivable graph), path length, geodesic, steps,
-collisions, and the final localisation error (the pose source against the truth at the end, m).
+Scores per goal (one row of ``episodes.csv``): its outcome (``success``, ``stalled``, ``timeout``,
+``unreachable``, ``tipped``; the environment's), success (within 1 m), SPL (success × geodesic / max(path
+driven, geodesic), the geodesic on the environment's drivable graph), path length, geodesic, steps,
+collisions, the localisation error when the goal ended (the pose source against the truth, 3-D, m), the
+pose source's own uncertainty then (1σ horizontal, m; 0 for ground truth, NaN where a source gives none)
+and the distance driven since the episode began (m).
 """
 
 from __future__ import annotations
@@ -39,9 +48,12 @@ import numpy as np
 
 from .. import geometry
 from ..errors import InvalidParameterError
+from ..localisation import LocalisationConfig, Localiser
 from .frames import RolloutStream, SelfMotionSource
 
-__all__ = ["PlannerAgent", "RandomAgent", "load_agent", "run_episode", "summarise"]
+__all__ = ["POSE_SOURCES", "GoalResult", "PlannerAgent", "RandomAgent", "load_agent", "run_episode", "summarise"]
+
+POSE_SOURCES = ("groundtruth", "odometry", "slam", "slam-camera")
 
 
 class RandomAgent:
@@ -58,24 +70,38 @@ class RandomAgent:
 
 
 class PlannerAgent:
-    """Plans once at reset the shortest drivable path (ramp-aware, on the graph derived from the world's
-    geometry) and follows it with the scripted drives' pure-pursuit controller, steering by its pose."""
+    """Plans at each goal's start the shortest drivable path (ramp-aware, on the graph derived from the
+    world's geometry) from where its pose says it is, and follows it with the scripted drives' pure-pursuit
+    controller, steering by its pose; where the path's next point lies more than ``turn_in_place`` off its
+    heading it turns on the spot first (an arc from a standstill would swing the chassis into whatever it
+    stands beside). A goal no drivable path reaches is not driven toward: it stands."""
 
-    def __init__(self, world, graph, seed: int, *, speed: float = 1.0):
+    def __init__(self, world, graph, seed: int, *, speed: float = 1.0, turn_in_place: float = 0.5):
         self.graph = graph
         self.speed = speed
+        self.turn_in_place = turn_in_place
         self.driver = None
 
     def reset(self, start: np.ndarray, goal: np.ndarray) -> None:
         import sim
 
-        path, _ = self.graph.shortest_path(start[:3], goal)
-        points = np.vstack([start[:3], path[1::2], goal]) if len(path) else np.vstack([start[:3], goal])
+        path, length = self.graph.shortest_path(start[:3], goal)
+        if not math.isfinite(length):
+            self.driver = None
+            return
+        points = np.vstack([start[:3], path[1:], goal])
         keep = np.concatenate([[True], np.linalg.norm(np.diff(points[:, :2], axis=0), axis=1) > 1e-6])
         self.driver = sim.PurePursuit(sim.world.Route("plan", points[keep], False), speed=self.speed)
 
     def act(self, observation: dict, pose: np.ndarray) -> np.ndarray:
-        return np.array(self.driver.command(np.asarray(pose[:3]), float(pose[3])), dtype=np.float32)
+        if self.driver is None:
+            return np.zeros(2, dtype=np.float32)
+        speed, yaw_rate = self.driver.command(np.asarray(pose[:3]), float(pose[3]))
+        target = self.driver.route.point_at(self.driver.progress + self.driver.lookahead)
+        bearing = geometry.wrap(math.atan2(target[1] - pose[1], target[0] - pose[0]) - float(pose[3]))
+        if abs(bearing) > self.turn_in_place:
+            speed, yaw_rate = 0.0, float(np.clip(2.0 * bearing, -1.5, 1.5))
+        return np.array([speed, yaw_rate], dtype=np.float32)
 
 
 AGENTS = {"random": RandomAgent, "planner": PlannerAgent}
@@ -95,53 +121,68 @@ def load_agent(name: str) -> type:
 
 
 @dataclass
-class Episode:
-    """One row of ``episodes.csv``."""
+class GoalResult:
+    """One row of ``episodes.csv``: one goal of an episode (see the module's description)."""
 
     world: str
     seed: int
     agent: str
     pose: str
+    goal_index: int
+    outcome: str
     success: bool
     spl: float
     path_length_m: float
     geodesic_m: float
     steps: int
     collisions: int
-    final_localisation_error_m: float
+    localisation_error_m: float
+    position_uncertainty_m: float
+    distance_driven_m: float
 
 
 class EpisodeRunner:
     """One episode's agent and pose source, fed by whoever steps the environment (a single environment or
     one slot of a vector environment): :meth:`begin` with the reset's observation and info, then
-    :meth:`act` and :meth:`observe` each step, and :meth:`finish` with the last info."""
+    :meth:`act` and :meth:`observe` each step, and :meth:`finish` with the last info; :attr:`results` holds
+    a row per goal."""
 
     def __init__(self, world_name: str, seed: int, agent_name: str, pose_source: str, *, graph, world,
                  load_map: Path | None = None):
+        if pose_source not in POSE_SOURCES:
+            raise InvalidParameterError("--pose", pose_source, f"must be one of {', '.join(POSE_SOURCES)}")
         self.world_name, self.seed, self.agent_name, self.pose_source = world_name, seed, agent_name, pose_source
         self.graph = graph
         self.agent = load_agent(agent_name)(world, graph, seed)
         self.load_map = load_map
         self.steps = 0
+        self.results: list[GoalResult] = []
+        self.uncertainty = 0.0 if pose_source == "groundtruth" else math.nan
+        self._driven = 0.0  # m driven in the goals that ended
+        self._collisions = 0  # the environment's count when the current goal began
+        self._last_finished = False
 
     def begin(self, observation: dict, info: dict) -> None:
         from ..slam import NeuroSLAM
 
         self.start = np.array(info["pose"], dtype=float)
-        self.goal = np.array(info["goal"], dtype=float)
-        self.agent.reset(self.start, self.goal)
         self.pose = self.start
         self.odometry_origin = np.array(info["odometry_pose"], dtype=float)
-        self.slam = None
-        if self.pose_source == "slam":
-            self.slam = NeuroSLAM.load(self.load_map) if self.load_map is not None else NeuroSLAM("sim")
-            if self.load_map is not None:
-                self.slam.begin_session(start="known")
-            # the wheels' speed and turn rate, the camera's views and pitch (as drive --odometry wheel)
-            self.self_motion = SelfMotionSource("wheel", self.slam)
-            frame = RolloutStream.frame_of(observation, info, 0)
-            self.slam.step(frame.image, frame.time, odometry=self.self_motion(frame))
-            self.slam_anchor, self.slam_origin = self.start, self.slam.last.pose.copy()
+        self.localiser = None
+        if self.pose_source.startswith("slam"):
+            slam = NeuroSLAM.load(self.load_map) if self.load_map is not None else NeuroSLAM("sim")
+            mode = "wheel" if self.pose_source == "slam" else "visual"
+            self.localiser = Localiser(slam, self.start, LocalisationConfig.preset(mode),
+                                       loaded_map=self.load_map is not None)
+            # wheel: the wheels' speed and turn rate, the camera's views and pitch (as drive --odometry wheel)
+            self.self_motion = SelfMotionSource(mode, slam)
+            self._localise(observation, info, 0)
+        self.agent.reset(self.pose, np.array(info["goal"], dtype=float))
+
+    def _localise(self, observation: dict, info: dict, index: int) -> None:
+        frame = RolloutStream.frame_of(observation, info, index)
+        where = self.localiser.step(frame.image, frame.time, odometry=self.self_motion(frame))
+        self.pose, self.uncertainty = where.pose, where.position_error
 
     def act(self, observation: dict) -> np.ndarray:
         return np.asarray(self.agent.act(observation, self.pose), dtype=np.float32)
@@ -154,34 +195,48 @@ class EpisodeRunner:
             origin, (x, y, yaw) = self.odometry_origin, np.array(info["odometry_pose"], dtype=float)
             travelled = geometry.relative(np.array([origin[0], origin[1], 0.0, origin[2]]), np.array([x, y, 0.0, yaw]))
             self.pose = geometry.compose(self.start, travelled)  # the wheels measure no height: the start's is kept
-        else:  # the SLAM's estimate
-            frame = RolloutStream.frame_of(observation, info, self.steps)
-            estimate = self.slam.step(frame.image, frame.time, odometry=self.self_motion(frame))
-            if estimate.merged:  # the estimate moved into the loaded map's frame: keep the pose continuous
-                self.slam_anchor, self.slam_origin = self.pose, estimate.pose.copy()
-            self.pose = geometry.compose(self.slam_anchor, geometry.relative(self.slam_origin, estimate.pose))
+        else:
+            self._localise(observation, info, self.steps)
+        self._last_finished = bool(info["goal_finished"])
+        if self._last_finished:
+            self._record(info, str(info["goal_outcome"]))
+            if "next_goal" in info:  # the next goal of a sequence, from where the agent thinks it is
+                self.agent.reset(self.pose, np.array(info["next_goal"], dtype=float))
 
-    def finish(self, info: dict) -> Episode:
+    def _record(self, info: dict, outcome: str) -> None:
         truth = np.array(info["pose"], dtype=float)
-        geodesic = self.graph.geodesic(self.start[:3], self.goal)
         path_length, success = float(info["path_length"]), bool(info["success"])
-        return Episode(self.world_name, self.seed, self.agent_name, self.pose_source, success,
-                       float(success) * geodesic / max(path_length, geodesic, 1e-9), path_length, float(geodesic),
-                       self.steps, int(info["collisions"]), float(np.linalg.norm(self.pose[:3] - truth[:3])))
+        self._driven += path_length
+        collisions = int(info["collisions"])
+        self.results.append(GoalResult(
+            self.world_name, self.seed, self.agent_name, self.pose_source, int(info["goal_index"]), outcome, success,
+            float(info["spl"]), path_length, float(info["geodesic"]), int(info["goal_steps"]),
+            collisions - self._collisions, float(np.linalg.norm(self.pose[:3] - truth[:3])), float(self.uncertainty),
+            self._driven))
+        self._collisions = collisions
+
+    def finish(self, info: dict) -> list[GoalResult]:
+        """The rows of the episode's goals (a goal cut off by the time limit counts as ``timeout``)."""
+        if not self._last_finished:
+            self._record(info, "timeout")
+        return self.results
 
 
-def _environment(world_name: str, goal_sensor: str, max_steps: int):
+def _environment(world_name: str, goal_sensor: str, max_steps: int, goals: int = 1):
     import gymnasium as gym
 
-    import sim  # noqa: F401 (registers NeuroSLAM/PointNav-v0)
+    import sim  # noqa: F401 (registers the environments)
 
-    return gym.make("NeuroSLAM/PointNav-v0", world=world_name, goal_sensor=goal_sensor, max_episode_steps=max_steps)
+    if goals > 1:
+        return gym.make("NeuroSLAM/SequentialPointNav-v0", world=world_name, goal_sensor=goal_sensor, goals=goals,
+                        goal_steps=max_steps)
+    return gym.make("NeuroSLAM/PointNav-v1", world=world_name, goal_sensor=goal_sensor, max_episode_steps=max_steps)
 
 
 def run_episode(world_name: str, seed: int, agent_name: str, pose_source: str, *, graph, goal_sensor: str = "gps",
-                load_map: Path | None = None, max_steps: int = 1500) -> Episode:
-    """One seeded episode of ``NeuroSLAM/PointNav-v0``; its scores."""
-    env = _environment(world_name, goal_sensor, max_steps)
+                load_map: Path | None = None, max_steps: int = 1500, goals: int = 1) -> list[GoalResult]:
+    """One seeded episode (``goals`` in a row; ``max_steps`` per goal); a row per goal."""
+    env = _environment(world_name, goal_sensor, max_steps, goals)
     try:
         observation, info = env.reset(seed=seed)
         runner = EpisodeRunner(world_name, seed, agent_name, pose_source, graph=graph, world=env.unwrapped.world,
@@ -198,26 +253,28 @@ def run_episode(world_name: str, seed: int, agent_name: str, pose_source: str, *
 
 
 def _slot(batch: dict, index: int) -> dict:
-    """Environment ``index``'s entries of a vector environment's observation or info dict."""
-    return {key: value[index] for key, value in batch.items() if not key.startswith("_")}
+    """Environment ``index``'s entries of a vector environment's observation or info dict (the keys it has)."""
+    return {key: value[index] for key, value in batch.items()
+            if not key.startswith("_") and batch.get(f"_{key}", np.ones(index + 1, dtype=bool))[index]}
 
 
 def run_episodes_vector(world_name: str, seeds: list[int], agent_name: str, pose_source: str, *, graph, world,
                         num_envs: int, goal_sensor: str = "gps", load_map: Path | None = None,
-                        max_steps: int = 1500, progress=None) -> list[Episode]:
+                        max_steps: int = 1500, goals: int = 1, progress=None) -> list[GoalResult]:
     """The episodes of ``seeds`` on a gymnasium async vector environment of ``num_envs`` copies (spawned
     processes; automatic resets off, so each slot is reset with the next episode's own seed and every
-    setting sees the same pairs). Returns them in the order of ``seeds``."""
+    setting sees the same episodes). Returns their rows in the order of ``seeds``."""
     import functools
 
     import gymnasium as gym
 
     count = min(num_envs, len(seeds))
-    envs = gym.vector.AsyncVectorEnv([functools.partial(_environment, world_name, goal_sensor, max_steps)] * count,
-                                     context="spawn", autoreset_mode=gym.vector.AutoresetMode.DISABLED)
+    make = functools.partial(_environment, world_name, goal_sensor, max_steps, goals)
+    envs = gym.vector.AsyncVectorEnv([make] * count, context="spawn",
+                                     autoreset_mode=gym.vector.AutoresetMode.DISABLED)
     pending = list(seeds)
     runners: list[EpisodeRunner | None] = [None] * count
-    finished: dict[int, Episode] = {}
+    finished: dict[int, list[GoalResult]] = {}
     try:
         first = [pending.pop(0) for _ in range(count)]
         observations, infos = envs.reset(seed=first)
@@ -253,34 +310,57 @@ def run_episodes_vector(world_name: str, seeds: list[int], agent_name: str, pose
                         runners[index].begin(_slot(observations, index), _slot(infos, index))
     finally:
         envs.close()
-    return [finished[seed] for seed in seeds]
+    return [row for seed in seeds for row in finished[seed]]
 
 
-def write_episodes(path: Path, episodes: list[Episode]) -> None:
-    rows = [asdict(episode) for episode in episodes]
+def write_episodes(path: Path, results: list[GoalResult]) -> None:
+    rows = [asdict(result) for result in results]
     with path.open("w", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=list(rows[0]) if rows else list(Episode.__dataclass_fields__))
+        writer = csv.DictWriter(file, fieldnames=list(GoalResult.__dataclass_fields__))
         writer.writeheader()
         writer.writerows(rows)
 
 
-def summarise(episodes: list[Episode]) -> dict[str, Any]:
-    """``{"settings": [{world, agent, pose, episodes, success_rate, spl, spl_ci95}]}`` (the 95 % interval
-    of the mean SPL by the normal approximation, 1.96 × standard error)."""
-    groups: dict[tuple, list[Episode]] = {}
-    for episode in episodes:
-        groups.setdefault((episode.world, episode.agent, episode.pose), []).append(episode)
+def _interval(values: np.ndarray) -> list[float]:
+    """The 95 % interval of the mean (normal approximation, 1.96 × standard error)."""
+    half = 1.96 * values.std(ddof=1) / math.sqrt(len(values)) if len(values) > 1 else math.nan
+    return [float(values.mean() - half), float(values.mean() + half)]
+
+
+def summarise(results: list[GoalResult]) -> dict[str, Any]:
+    """Per setting (world, agent, pose): ``goals``, ``episodes``, ``success_rate`` and ``success_ci95``,
+    ``spl`` and ``spl_ci95`` (95 % intervals of the mean, 1.96 × standard error), ``outcomes`` (counts),
+    ``median_localisation_error_m``; and, for sequences, ``localisation_error_by_goal`` (the median over
+    episodes at each goal index, m) and ``localisation_error_trend`` (least-squares slope of the error
+    against the distance driven, m per 100 m)."""
+    groups: dict[tuple, list[GoalResult]] = {}
+    for result in results:
+        groups.setdefault((result.world, result.agent, result.pose), []).append(result)
     settings = []
     for (world, agent, pose), members in groups.items():
-        spl = np.array([episode.spl for episode in members])
-        half = 1.96 * spl.std(ddof=1) / math.sqrt(len(spl)) if len(spl) > 1 else math.nan
-        settings.append({"world": world, "agent": agent, "pose": pose, "episodes": len(members),
-                         "success_rate": float(np.mean([episode.success for episode in members])),
-                         "spl": float(spl.mean()), "spl_ci95": [float(spl.mean() - half), float(spl.mean() + half)]})
+        spl = np.array([member.spl for member in members])
+        success = np.array([member.success for member in members], dtype=float)
+        errors = np.array([member.localisation_error_m for member in members])
+        outcomes: dict[str, int] = {}
+        for member in members:
+            outcomes[member.outcome] = outcomes.get(member.outcome, 0) + 1
+        setting = {"world": world, "agent": agent, "pose": pose, "goals": len(members),
+                   "episodes": len({member.seed for member in members}),
+                   "success_rate": float(success.mean()), "success_ci95": _interval(success),
+                   "spl": float(spl.mean()), "spl_ci95": _interval(spl), "outcomes": outcomes,
+                   "median_localisation_error_m": float(np.median(errors))}
+        indices = np.array([member.goal_index for member in members])
+        if indices.max() > 0:
+            setting["localisation_error_by_goal"] = [float(np.median(errors[indices == k]))
+                                                     for k in range(int(indices.max()) + 1)]
+            driven = np.array([member.distance_driven_m for member in members])
+            slope = np.polyfit(driven, errors, 1)[0] if np.ptp(driven) > 0 else math.nan
+            setting["localisation_error_trend"] = float(100 * slope)
+        settings.append(setting)
     return {"settings": settings}
 
 
-def write_summary(path: Path, episodes: list[Episode]) -> dict[str, Any]:
-    summary = summarise(episodes)
+def write_summary(path: Path, results: list[GoalResult]) -> dict[str, Any]:
+    summary = summarise(results)
     path.write_text(json.dumps(summary, indent=2) + "\n")
     return summary

@@ -152,23 +152,30 @@ def build_parser() -> argparse.ArgumentParser:
 
     nav = commands.add_parser(
         "nav", help="point-goal navigation episodes with an agent and a pose source",
-        description="Evaluate navigation on NeuroSLAM/PointNav-v0: N seeded episodes per world (the same start "
-        "and goal pairs for every setting), an agent (random; planner: a ramp-aware shortest path on the "
-        "drivable graph derived from the world's geometry, followed with the scripted drives' controller; or "
-        "module:Class, see neuroslam.lab.nav) localising itself with a pose source (groundtruth, odometry: the "
-        "wheel encoders, slam: NeuroSLAM on the wheels and the camera, with --load-map a map of an earlier "
-        "drive of the same world). Writes OUT/episodes.csv (world, seed, agent, pose, success, spl, "
-        "path_length_m, geodesic_m, steps, collisions, final_localisation_error_m) and OUT/summary.json.")
+        description="Evaluate navigation on NeuroSLAM/PointNav-v1, or with --sequential N on "
+        "NeuroSLAM/SequentialPointNav-v0 (N goals in a row, nothing reset between them): seeded episodes per "
+        "world (the same starts and goals for every setting), an agent (random; planner: a ramp-aware "
+        "shortest path on the drivable graph derived from the world's geometry, followed with the scripted "
+        "drives' controller; or module:Class, see neuroslam.lab.nav) localising itself with a pose source "
+        "(groundtruth; odometry: the wheel encoders; slam: the wheels corrected where NeuroSLAM recognises a "
+        "place, with --load-map a map of an earlier drive of the same world; slam-camera: the same on the "
+        "camera alone). Writes OUT/episodes.csv (a row per goal: outcome, success, spl, path length, "
+        "geodesic, steps, collisions, localisation error, the pose source's uncertainty, distance driven) "
+        "and OUT/summary.json (success, SPL and their 95 %% intervals, localisation error and its trend).")
     nav.add_argument("worlds", nargs="+", metavar="WORLD", help="built-in names, gen:SEED or MJCF paths")
     nav.add_argument("--agent", default="planner", help="random, planner or module:Class (default: planner)")
-    nav.add_argument("--pose", choices=["groundtruth", "odometry", "slam"], default="groundtruth",
+    nav.add_argument("--pose", choices=["groundtruth", "odometry", "slam", "slam-camera"], default="groundtruth",
                      help="how the agent localises itself (default: groundtruth)")
-    nav.add_argument("--load-map", type=Path, help="with --pose slam: a map (or run folder) of an earlier drive")
+    nav.add_argument("--load-map", type=Path,
+                     help="with --pose slam or slam-camera: a map (or run folder) of an earlier drive")
     nav.add_argument("--goal-sensor", choices=["gps", "start"], default="gps",
-                     help="the goal relative to the robot every step (gps) or only at reset (start)")
+                     help="the goal relative to the robot every step (gps) or only when it is given (start)")
     nav.add_argument("--episodes", type=positive_int, default=20, help="episodes per world (default: 20)")
+    nav.add_argument("--sequential", type=positive_int, default=1, metavar="N",
+                     help="goals per episode, driven in a row from wherever the last ended (default: 1)")
     nav.add_argument("--seed", type=int, default=0, help="first episode's seed (default: 0)")
-    nav.add_argument("--max-steps", type=positive_int, default=1500, help="steps per episode (default: 1500)")
+    nav.add_argument("--max-steps", type=positive_int, default=1500,
+                     help="steps per goal before it times out (default: 1500 = 150 s)")
     nav.add_argument("--num-envs", type=positive_int, default=1,
                      help="run episodes in a gymnasium async vector env of this many copies (spawned processes)")
     output_options(nav, "output folder (default: a new folder under runs/)")

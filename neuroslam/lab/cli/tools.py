@@ -106,35 +106,37 @@ def nav_command(args: argparse.Namespace) -> int:
     from ..nav import load_agent, run_episode, run_episodes_vector, write_episodes, write_summary
 
     load_agent(args.agent)  # an unknown agent fails before any episode
-    if args.load_map is not None and args.pose != "slam":
-        raise InvalidParameterError("--load-map", str(args.load_map), "is used with --pose slam only")
+    if args.load_map is not None and not args.pose.startswith("slam"):
+        raise InvalidParameterError("--load-map", str(args.load_map), "is used with --pose slam or slam-camera only")
     worlds = {name: sim.load_world(name) for name in args.worlds}  # bad worlds and maps fail before any episode
     if args.load_map is not None:
         from ...slam import NeuroSLAM
 
         NeuroSLAM.load(args.load_map)
     out = output_folder(args, Path("runs") / f"nav-{time.strftime('%Y%m%d-%H%M%S')}")
-    episodes = []
+    results = []
     with tqdm(total=len(args.worlds) * args.episodes, unit="episode", desc="nav") as bar:
         for name in args.worlds:
             world = worlds[name]
-            graph = DrivableGraph(world)
+            graph = DrivableGraph.of(world)
             seeds = [args.seed + k for k in range(args.episodes)]
+            settings = {"graph": graph, "goal_sensor": args.goal_sensor, "load_map": args.load_map,
+                        "max_steps": args.max_steps, "goals": args.sequential}
             if args.num_envs > 1:
-                episodes += run_episodes_vector(name, seeds, args.agent, args.pose, graph=graph, world=world,
-                                                num_envs=args.num_envs, goal_sensor=args.goal_sensor,
-                                                load_map=args.load_map, max_steps=args.max_steps, progress=bar)
+                results += run_episodes_vector(name, seeds, args.agent, args.pose, world=world,
+                                               num_envs=args.num_envs, progress=bar, **settings)
                 continue
             for seed in seeds:
-                episodes.append(run_episode(name, seed, args.agent, args.pose, graph=graph,
-                                            goal_sensor=args.goal_sensor, load_map=args.load_map,
-                                            max_steps=args.max_steps))
+                results += run_episode(name, seed, args.agent, args.pose, **settings)
                 bar.update()
-    write_episodes(out / "episodes.csv", episodes)
-    summary = write_summary(out / "summary.json", episodes)
+    write_episodes(out / "episodes.csv", results)
+    summary = write_summary(out / "summary.json", results)
     for setting in summary["settings"]:
-        print(f"{setting['world']:<10} {setting['agent']:<8} {setting['pose']:<12} {setting['episodes']:>3} episodes: "
-              f"success {setting['success_rate']:.2f}, SPL {setting['spl']:.2f}")
+        trend = setting.get("localisation_error_trend")
+        print(f"{setting['world']:<10} {setting['agent']:<8} {setting['pose']:<12} {setting['goals']:>4} goals: "
+              f"success {setting['success_rate']:.2f}, SPL {setting['spl']:.2f}, localisation error "
+              f"{setting['median_localisation_error_m']:.2f} m"
+              + ("" if trend is None else f" (trend {trend:+.2f} m per 100 m)"))
     print(f"output: {out}")
     return 0
 

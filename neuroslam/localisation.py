@@ -1,0 +1,293 @@
+"""Where the robot is, for a robot that acts on it: its self-motion, corrected where NeuroSLAM recognises a
+place, and how sure it is.
+
+NeuroSLAM's own estimate (:attr:`Estimate.pose`) is the experience map's: it jumps wherever the map says,
+in the map's frame. A robot that navigates needs a pose in its task's frame that is never worse than the
+odometry it was given. :class:`Localiser` keeps one:
+
+- **Prediction.** Between recognitions the pose follows the self-motion NeuroSLAM integrated (the same
+  speed, turn and climb), and its uncertainty grows: a standard deviation per degree of freedom, growing
+  linearly with the distance driven and the angle turned (drift is mostly systematic, so it is added, not
+  added in quadrature).
+- **Correction only on confirmed recognition.** A frame on which NeuroSLAM closes a loop (the confirmed
+  rule, :func:`~neuroslam.loop_closure.confirm_place`) or merges into a loaded map gives a measurement: the
+  experience map's pose, expressed in the task's frame. Its uncertainty is that of the place in the map
+  (the localiser's own uncertainty when it laid that experience, or ``map_error`` for a loaded map's) and
+  the recognition's (``recognition_error``). A measurement farther from the prediction than ``gate``
+  standard deviations of their difference is rejected; an accepted one is fused with the inverse-variance
+  weights of a Kalman update per degree of freedom. Repeated recognitions of one place are not
+  independent (the place's error is a bias), so fusion never claims more than the measurement's own
+  uncertainty over √2.
+- **A loaded map's frame is aligned robustly.** A map of an earlier drive is in that drive's frame. The
+  session starts as an unknown start (its own frame, the task's start pose); once it merges into the map,
+  each recognition pairs the predicted pose (task frame) with the map's (map frame), and the rigid
+  transform between the frames (yaw, x, y, z) is fitted by weighted least squares over the first
+  ``alignment_pairs`` pairs spread over at least ``alignment_spread`` metres, with pairs beyond three
+  times their median residual dropped and the fit repeated. Until then the map corrects nothing: no snap to
+  one experience's pose.
+
+Units: metres, radians, seconds.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config.checks import non_negative, positive, require
+from .errors import InvalidInputError
+from .estimate import Estimate
+from .geometry import compose, inverse, wrap
+from .slam import NeuroSLAM
+from .vision.odometry import SelfMotion
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["Localisation", "LocalisationConfig", "Localiser"]
+
+
+@dataclass(frozen=True)
+class LocalisationConfig:
+    """How fast the self-motion drifts and how far a recognition is trusted.
+
+    Attributes:
+        distance_drift: horizontal position error per metre driven (1σ, m/m).
+        height_drift: height error per metre driven (1σ, m/m).
+        turn_drift: heading error per radian turned (1σ, rad/rad).
+        heading_drift: heading error per metre driven (1σ, rad/m).
+        recognition_error: error of a recognised place's position beyond the map's own (1σ, m): a
+            recognition places the robot within the confirmation tolerance of the experience.
+        recognition_heading_error: its heading error (1σ, rad).
+        map_error: position error of a loaded map's places (1σ, m); its heading error is
+            ``map_error / 10`` rad (a metre of position error over ten metres of map).
+        gate: a measurement farther than this many standard deviations from the prediction is rejected.
+        alignment_pairs: recognitions that align a loaded map with the task's frame.
+        alignment_spread: the least extent of those recognitions' positions, m (a shorter baseline leaves
+            the map's heading undetermined).
+
+    Presets (:meth:`preset`): ``wheel`` for wheel encoders (``distance_drift`` 0.02: the testbed's and a
+    typical encoder's relative error, taken as if systematic; 0.01 rad per radian turned and 0.0005 rad per
+    metre, about 3° per 100 m), ``visual`` for NeuroSLAM's own visual odometry (0.10 and 0.05: its distance
+    reads tens of percent off on blank floors, docs/generalization.md).
+    """
+
+    distance_drift: float = 0.02
+    height_drift: float = 0.02
+    turn_drift: float = 0.01
+    heading_drift: float = 0.0005
+    recognition_error: float = 0.3
+    recognition_heading_error: float = 0.05
+    map_error: float = 0.5
+    gate: float = 3.0
+    alignment_pairs: int = 5
+    alignment_spread: float = 5.0
+
+    def __post_init__(self) -> None:
+        section = "localisation"
+        non_negative(section, distance_drift=self.distance_drift, height_drift=self.height_drift,
+                     turn_drift=self.turn_drift, heading_drift=self.heading_drift)
+        positive(section, recognition_error=self.recognition_error, map_error=self.map_error, gate=self.gate,
+                 recognition_heading_error=self.recognition_heading_error, alignment_spread=self.alignment_spread)
+        require(f"{section}.alignment_pairs", self.alignment_pairs,
+                isinstance(self.alignment_pairs, int) and not isinstance(self.alignment_pairs, bool)
+                and self.alignment_pairs >= 2, "must be a whole number >= 2")
+
+    @classmethod
+    def preset(cls, odometry: str) -> LocalisationConfig:
+        """The settings for a self-motion source: ``wheel`` or ``visual`` (see the class docstring)."""
+        if odometry == "wheel":
+            return cls()
+        if odometry == "visual":
+            return cls(distance_drift=0.10, height_drift=0.05, turn_drift=0.05, heading_drift=0.002)
+        raise InvalidInputError("odometry", repr(odometry), "must be 'wheel' or 'visual'")
+
+
+@dataclass
+class Localisation:
+    """The localiser's answer after one frame.
+
+    Attributes:
+        pose: (x, y, z, yaw) in the task's frame, m and rad.
+        position_error: 1σ horizontal position uncertainty, m. height_error: 1σ, m. heading_error: 1σ, rad.
+        corrected: a recognition corrected the pose this frame. rejected: one was refused by the gate.
+        aligned: the map NeuroSLAM is in is aligned with the task's frame (always, without a loaded map).
+        estimate: NeuroSLAM's estimate for the frame (in the map's frame).
+    """
+
+    pose: np.ndarray
+    position_error: float
+    height_error: float
+    heading_error: float
+    corrected: bool
+    rejected: bool
+    aligned: bool
+    estimate: Estimate
+
+
+@dataclass
+class _Place:
+    """An uncertainty kept per experience: the localiser's own when it laid the experience."""
+
+    position: float
+    height: float
+    heading: float
+
+
+class Localiser:
+    """A pose in the task's frame from NeuroSLAM and its self-motion (see the module's description).
+
+    Args:
+        slam: the NeuroSLAM to step (fresh, or with a loaded map: :meth:`NeuroSLAM.load`).
+        start: the robot's pose in the task's frame at the first frame, (x, y, z, yaw), m and rad.
+        config: drift and trust settings (:meth:`LocalisationConfig.preset`).
+        loaded_map: ``slam`` holds a map of an earlier drive: the session starts as an unknown start in it
+            (:meth:`NeuroSLAM.begin_session`) and its frame is aligned from recognitions.
+
+    Example::
+
+        slam = NeuroSLAM.load("runs/carpark")
+        localiser = Localiser(slam, start_pose, LocalisationConfig.preset("wheel"), loaded_map=True)
+        for image, t, wheels in frames:
+            where = localiser.step(image, t, odometry=wheels)   # where.pose, where.position_error
+    """
+
+    def __init__(self, slam: NeuroSLAM, start: np.ndarray, config: LocalisationConfig | None = None, *,
+                 loaded_map: bool = False):
+        start = np.asarray(start, dtype=float)
+        if start.shape != (4,) or not np.all(np.isfinite(start)):
+            raise InvalidInputError("start", repr(start.tolist()), "must be (x, y, z, yaw), finite, m and rad")
+        self.slam = slam
+        self.config = config or LocalisationConfig()
+        self.pose = start.copy()
+        self.start = start.copy()
+        self.sigma = np.zeros(3)  # position, height, heading: 1σ
+        self.loaded_map = loaded_map
+        if loaded_map:
+            slam.begin_session(start="unknown")
+        self._session_component = -1
+        self._alignment: np.ndarray | None = None  # task frame ← SLAM frame, (x, y, z, yaw)
+        self._alignment_error = 0.0
+        self._pairs: list[tuple[np.ndarray, np.ndarray, float]] = []  # (task pose, map pose, weight)
+        self._places: dict[int, _Place] = {}
+        self._last_time: float | None = None
+        self.corrections = 0
+        self.rejections = 0
+        self.last: Localisation | None = None
+
+    @property
+    def aligned(self) -> bool:
+        """The SLAM's current frame is tied to the task's frame."""
+        return self._alignment is not None
+
+    def step(self, image: np.ndarray, timestamp: float, odometry: SelfMotion | None = None) -> Localisation:
+        """One frame: :meth:`NeuroSLAM.step` (same arguments; its errors, state unchanged), then predict and,
+        on a confirmed recognition, correct."""
+        first = self._last_time is None
+        estimate = self.slam.step(image, timestamp, odometry)
+        dt = 0.0 if first else float(timestamp) - self._last_time
+        self._last_time = float(timestamp)
+        self._predict(estimate.self_motion, dt)
+        if first:  # the SLAM's own frame starts here: it is the task's start
+            self._alignment = compose(self.start, inverse(estimate.pose))
+            self._session_component = self.slam.experience_map.component
+        component = self.slam.experience_map.component
+        corrected = rejected = False
+        if component != self._session_component:  # merged into the loaded map: a frame to align
+            self._session_component = component
+            self._alignment, self._pairs = None, []
+            logger.info("merged into the loaded map; aligning its frame from recognitions")
+        if estimate.loop_closure or estimate.merged:
+            if self._alignment is None:
+                self._collect(estimate)
+            if self._alignment is not None:
+                corrected, rejected = self._correct(estimate)
+        if estimate.new_experience:
+            self._places[estimate.experience_id] = _Place(*self.sigma)
+        self.last = Localisation(self.pose.copy(), float(self.sigma[0]), float(self.sigma[1]), float(self.sigma[2]),
+                                 corrected, rejected, self.aligned, estimate)
+        return self.last
+
+    # prediction ----------------------------------------------------------------------------------------
+    def _predict(self, motion: SelfMotion, dt: float) -> None:
+        distance, turn, climb = motion.forward_speed * dt, motion.yaw_rate * dt, motion.climb_rate * dt
+        x, y, z, yaw = self.pose
+        middle = yaw + turn / 2
+        self.pose = np.array([x + distance * math.cos(middle), y + distance * math.sin(middle), z + climb,
+                              wrap(float(yaw + turn))])
+        c = self.config
+        travelled = abs(distance)
+        self.sigma[2] += c.turn_drift * abs(turn) + c.heading_drift * travelled
+        self.sigma[0] += c.distance_drift * travelled + travelled * self.sigma[2]  # a heading error bends the path
+        self.sigma[1] += c.height_drift * travelled
+
+    # alignment of a loaded map ----------------------------------------------------------------------------
+    def _collect(self, estimate: Estimate) -> None:
+        """Pair the predicted pose with the map's; align once enough pairs spread far enough."""
+        weight = 1.0 / (self.sigma[0] ** 2 + self.config.recognition_error ** 2)
+        self._pairs.append((self.pose.copy(), estimate.pose.copy(), weight))
+        positions = np.array([pair[1][:2] for pair in self._pairs])
+        spread = float(np.max(np.ptp(positions, axis=0))) if len(positions) > 1 else 0.0
+        if len(self._pairs) >= self.config.alignment_pairs and spread >= self.config.alignment_spread:
+            self._alignment, self._alignment_error = align(self._pairs)
+            logger.info("loaded map aligned from %d recognitions (residual %.2f m)", len(self._pairs),
+                        self._alignment_error)
+
+    # correction ----------------------------------------------------------------------------------------
+    def _correct(self, estimate: Estimate) -> tuple[bool, bool]:
+        """Fuse the recognised pose (returns corrected, rejected)."""
+        c = self.config
+        measured = compose(self._alignment, estimate.pose)
+        place = self._places.get(estimate.experience_id)
+        if place is None:  # a loaded map's place
+            place = _Place(c.map_error, c.map_error, c.map_error / 10)
+        noise = np.array([math.hypot(place.position, c.recognition_error, self._alignment_error),
+                          math.hypot(place.height, c.recognition_error),
+                          math.hypot(place.heading, c.recognition_heading_error)])
+        innovation = np.array([float(np.linalg.norm(measured[:2] - self.pose[:2])), abs(measured[2] - self.pose[2]),
+                               abs(wrap(float(measured[3] - self.pose[3])))])
+        if np.any(innovation > c.gate * np.hypot(self.sigma, noise)):
+            self.rejections += 1
+            logger.debug("recognition at experience %d rejected (innovation %s)", estimate.experience_id,
+                         np.round(innovation, 2))
+            return False, True
+        gain = self.sigma**2 / (self.sigma**2 + noise**2)
+        self.pose[:2] += gain[0] * (measured[:2] - self.pose[:2])
+        self.pose[2] += gain[1] * (measured[2] - self.pose[2])
+        self.pose[3] = wrap(float(self.pose[3] + gain[2] * wrap(float(measured[3] - self.pose[3]))))
+        fused = np.sqrt(self.sigma**2 * noise**2 / (self.sigma**2 + noise**2))
+        self.sigma = np.minimum(self.sigma, np.maximum(fused, noise / math.sqrt(2)))
+        self.corrections += 1
+        return True, False
+
+
+def align(pairs: list[tuple[np.ndarray, np.ndarray, float]]) -> tuple[np.ndarray, float]:
+    """The rigid transform (x, y, z, yaw) taking map poses to task poses from ``(task pose, map pose,
+    weight)`` pairs: a weighted least-squares fit of the planar rotation and translation (the 2-D Kabsch
+    solution) and the weighted mean height offset, refitted once without the pairs beyond three times the
+    median residual. Returns it and the kept pairs' RMS residual, m."""
+    task = np.array([pair[0][:3] for pair in pairs])
+    mapped = np.array([pair[1][:3] for pair in pairs])
+    weights = np.array([pair[2] for pair in pairs])
+    keep = np.ones(len(pairs), dtype=bool)
+    for _ in range(2):
+        w = weights[keep] / weights[keep].sum()
+        a, b = mapped[keep], task[keep]
+        a_mean, b_mean = w @ a, w @ b
+        da, db = a[:, :2] - a_mean[:2], b[:, :2] - b_mean[:2]
+        cross = float(np.sum(w * (da[:, 0] * db[:, 1] - da[:, 1] * db[:, 0])))
+        dot = float(np.sum(w * (da[:, 0] * db[:, 0] + da[:, 1] * db[:, 1])))
+        yaw = math.atan2(cross, dot)
+        c, s = math.cos(yaw), math.sin(yaw)
+        rotated = np.array([c * a_mean[0] - s * a_mean[1], s * a_mean[0] + c * a_mean[1]])
+        transform = np.array([b_mean[0] - rotated[0], b_mean[1] - rotated[1], b_mean[2] - a_mean[2], yaw])
+        moved = compose(transform, np.column_stack([mapped, np.zeros(len(mapped))]))[:, :3]
+        residuals = np.linalg.norm(moved - task, axis=1)
+        median = float(np.median(residuals[keep]))
+        keep = residuals <= max(3 * median, 1e-9)
+        if keep.sum() < 2:
+            keep = residuals <= np.sort(residuals)[1]
+    return transform, float(np.sqrt(np.mean(residuals[keep] ** 2)))
+

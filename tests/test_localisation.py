@@ -1,0 +1,149 @@
+"""The localiser follows its self-motion, corrects only on confirmed recognitions (by inverse-variance
+weights, inside the gate), and aligns a loaded map's frame from several recognitions, not one snap.
+
+NeuroSLAM is replaced here by a scripted stand-in that returns chosen estimates, so each rule is checked
+against an exact expectation; the closed loop with the real SLAM runs in tests/test_nav.py."""
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from neuroslam import SelfMotion
+from neuroslam.errors import InvalidInputError, InvalidParameterError
+from neuroslam.estimate import Estimate
+from neuroslam.geometry import compose
+from neuroslam.localisation import LocalisationConfig, Localiser, align
+
+
+class ScriptedSLAM:
+    """Returns the estimate the test sets for the next frame (``pose`` in the SLAM's frame)."""
+
+    def __init__(self):
+        self.experience_map = SimpleNamespace(component=0)
+        self.sessions = []
+        self.next = {}
+        self.experience = 0
+
+    def begin_session(self, start="unknown"):
+        self.sessions.append(start)
+        self.experience_map.component = 1
+
+    def step(self, image, timestamp, odometry=None):
+        plan = {"pose": np.zeros(4), "loop_closure": False, "merged": False, "experience": None, **self.next}
+        self.next = {}
+        if plan["merged"]:
+            self.experience_map.component = 0
+        new = plan["experience"] is None
+        if new:
+            self.experience += 1
+        experience = self.experience if new else plan["experience"]
+        return Estimate(float(timestamp), np.asarray(plan["pose"], dtype=float), experience, 0, plan["loop_closure"],
+                        new, False, odometry, np.zeros(3), np.zeros(2), plan["merged"])
+
+
+IMAGE = np.zeros((8, 8), dtype=np.uint8)
+STRAIGHT = SelfMotion(1.0, 0.0, 0.0)  # 1 m/s ahead
+STOPPED = SelfMotion(0.0, 0.0, 0.0)
+
+
+def drive(localiser, frames, start_time=0.0, motion=STRAIGHT):
+    for k in range(frames):
+        where = localiser.step(IMAGE, start_time + 0.1 * k, odometry=motion)
+    return where
+
+
+def test_without_recognitions_the_pose_is_the_self_motion_and_its_uncertainty_grows_linearly():
+    config = LocalisationConfig(distance_drift=0.02, turn_drift=0.0, heading_drift=0.0, height_drift=0.01)
+    start = np.array([3.0, -2.0, 1.0, math.pi / 2])
+    localiser = Localiser(ScriptedSLAM(), start, config)
+    where = drive(localiser, 101)  # 100 steps of 0.1 s at 1 m/s after the first frame: 10 m north
+    np.testing.assert_allclose(where.pose, [3.0, 8.0, 1.0, math.pi / 2], atol=1e-9)
+    assert where.position_error == pytest.approx(0.2) and where.height_error == pytest.approx(0.1)
+    assert not where.corrected and where.aligned
+
+
+def test_a_recognition_pulls_the_pose_by_the_inverse_variance_weight():
+    config = LocalisationConfig(distance_drift=0.02, turn_drift=0.0, heading_drift=0.0, recognition_error=0.3)
+    slam = ScriptedSLAM()
+    localiser = Localiser(slam, np.zeros(4), config)
+    drive(localiser, 1)  # the first frame: experience 1, laid with no uncertainty
+    where = drive(localiser, 500, start_time=0.1)  # 50 m east: sigma 1.0 m
+    sigma = where.position_error
+    assert sigma == pytest.approx(1.0)
+    # a confirmed closure at experience 1 whose pose says the robot is 1 m north of its prediction
+    slam.next = {"pose": where.pose + np.array([0.0, 1.0, 0.0, 0.0]), "loop_closure": True, "experience": 1}
+    before = where.pose.copy()
+    where = localiser.step(IMAGE, 50.1, odometry=STOPPED)
+    gain = sigma**2 / (sigma**2 + 0.3**2)
+    assert where.corrected and where.pose[1] - before[1] == pytest.approx(gain * 1.0)
+    fused = math.sqrt(sigma**2 * 0.09 / (sigma**2 + 0.09))
+    assert where.position_error == pytest.approx(max(fused, 0.3 / math.sqrt(2)))
+
+
+def test_a_recognition_beyond_the_gate_is_rejected():
+    config = LocalisationConfig(distance_drift=0.02, turn_drift=0.0, heading_drift=0.0, recognition_error=0.3, gate=3.0)
+    slam = ScriptedSLAM()
+    localiser = Localiser(slam, np.zeros(4), config)
+    where = drive(localiser, 501)  # sigma 1.0 m; the gate: 3 * hypot(1.0, 0.3) = 3.13 m
+    slam.next = {"pose": where.pose + np.array([0.0, 4.0, 0.0, 0.0]), "loop_closure": True, "experience": 1}
+    after = localiser.step(IMAGE, 50.1, odometry=STOPPED)
+    assert after.rejected and not after.corrected and localiser.rejections == 1
+    np.testing.assert_allclose(after.pose, where.pose)
+
+
+def test_a_loaded_map_is_aligned_from_several_recognitions_not_snapped_to_the_first():
+    """The map's frame is the task's turned by 90° and shifted. The merge and the next three recognitions
+    correct nothing; the fifth, once they span 5 m, aligns the frame, and from then on they correct."""
+    map_from_task = np.array([10.0, -4.0, 2.0, math.pi / 2])  # a task pose p is compose(map_from_task, p) in the map
+    slam = ScriptedSLAM()
+    localiser = Localiser(slam, np.zeros(4), LocalisationConfig(), loaded_map=True)
+    assert slam.sessions == ["unknown"] and not localiser.aligned
+    drive(localiser, 1)
+    assert localiser.aligned  # its own session's frame starts at the task's start
+    slam.next = {"merged": True, "pose": compose(map_from_task, localiser.pose), "experience": 7}
+    where = localiser.step(IMAGE, 0.1, odometry=STOPPED)
+    assert not localiser.aligned and not where.corrected
+    time = 0.2
+    for k in range(4):
+        drive(localiser, 19, start_time=time)  # 1.9 m on
+        time += 1.9
+        slam.next = {"loop_closure": True, "pose": compose(map_from_task, localiser.pose), "experience": 7}
+        where = localiser.step(IMAGE, time, odometry=STOPPED)
+        time += 0.1
+        assert localiser.aligned == (k == 3)  # the merge's pair and four more
+        assert not where.corrected or k == 3
+    # now a recognition that says the robot is 0.5 m south of its prediction moves it there by the weights
+    drive(localiser, 100, start_time=time)
+    truth = localiser.pose + np.array([0.0, -0.5, 0.0, 0.0])
+    slam.next = {"loop_closure": True, "pose": compose(map_from_task, truth), "experience": 7}
+    before = localiser.pose.copy()
+    where = localiser.step(IMAGE, time + 10.0, odometry=STOPPED)
+    assert where.corrected and -0.5 < where.pose[1] - before[1] < -0.25
+    assert abs(where.pose[0] - before[0]) < 1e-6  # an exact alignment moves nothing sideways
+
+
+def test_align_recovers_a_rigid_transform_despite_an_outlier():
+    rng = np.random.default_rng(3)
+    transform = np.array([4.0, -7.0, 3.0, 2.5])
+    mapped = np.column_stack([rng.uniform(-20, 20, (12, 2)), rng.uniform(0, 3, 12), rng.uniform(-3, 3, 12)])
+    task = compose(transform, mapped) + np.column_stack([rng.normal(0, 0.05, (12, 3)), np.zeros(12)])
+    task[5, :2] += [6.0, -4.0]  # a false recognition
+    found, residual = align([(task[k], mapped[k], 1.0) for k in range(12)])
+    np.testing.assert_allclose(found[:3], transform[:3], atol=0.1)
+    assert abs(found[3] - transform[3]) < 0.01 and residual < 0.15
+
+
+@pytest.mark.parametrize("field, value", [("distance_drift", -0.1), ("gate", 0.0), ("alignment_pairs", 1),
+                                          ("map_error", math.nan)])
+def test_bad_settings_are_refused_by_name(field, value):
+    with pytest.raises(InvalidParameterError, match=f"localisation.{field}"):
+        LocalisationConfig(**{field: value})
+
+
+def test_a_bad_start_and_an_unknown_preset_are_refused():
+    with pytest.raises(InvalidInputError, match="start"):
+        Localiser(ScriptedSLAM(), np.array([0.0, 0.0, math.nan, 0.0]))
+    with pytest.raises(InvalidInputError, match="odometry"):
+        LocalisationConfig.preset("lidar")

@@ -6,16 +6,19 @@ in the map's frame. A robot that navigates needs a pose in its task's frame that
 odometry it was given. :class:`Localiser` keeps one:
 
 - **Prediction.** Between recognitions the pose follows the self-motion NeuroSLAM integrated (the same
-  speed, turn and climb), and its uncertainty grows: a standard deviation per degree of freedom, growing
-  linearly with the distance driven and the angle turned (drift is mostly systematic, so it is added, not
-  added in quadrature).
+  speed, turn and climb), and its uncertainty grows: a standard deviation per degree of freedom. The
+  heading's grows with the square root of the angle turned (each turn's error is independent) and linearly
+  with the distance (a bias); the position's and the height's linearly with the distance driven, plus the
+  distance times the heading's (a heading error bends the path it integrates).
 - **Correction only on confirmed recognition.** A frame on which NeuroSLAM closes a loop (the confirmed
   rule, :func:`~neuroslam.loop_closure.confirm_place`) or merges into a loaded map gives a measurement: the
   experience map's pose, expressed in the task's frame. Its uncertainty is that of the place in the map
   (the localiser's own uncertainty when it laid that experience, or ``map_error`` for a loaded map's) and
   the recognition's (``recognition_error``). A measurement farther from the prediction than ``gate``
-  standard deviations of their difference is rejected; an accepted one is fused with the inverse-variance
-  weights of a Kalman update per degree of freedom. Repeated recognitions of one place are not
+  standard deviations of their difference is rejected (the plane and the height each through their own
+  gate), unless ``persistence`` rejected ones in a row agree with one another: then the prediction is what
+  is wrong, and the pose takes the measurement. An accepted one is fused with the inverse-variance weights
+  of a Kalman update per degree of freedom. Repeated recognitions of one place are not
   independent (the place's error is a bias), so fusion never claims more than the measurement's own
   uncertainty over √2.
 - **A loaded map's frame is aligned robustly.** A map of an earlier drive is in that drive's frame. The
@@ -56,32 +59,37 @@ class LocalisationConfig:
     Attributes:
         distance_drift: horizontal position error per metre driven (1σ, m/m).
         height_drift: height error per metre driven (1σ, m/m).
-        turn_drift: heading error per radian turned (1σ, rad/rad).
+        turn_drift: heading error per square root of the angle turned (1σ, rad/√rad).
         heading_drift: heading error per metre driven (1σ, rad/m).
         recognition_error: error of a recognised place's position beyond the map's own (1σ, m): a
             recognition places the robot within the confirmation tolerance of the experience.
         recognition_heading_error: its heading error (1σ, rad).
         map_error: position error of a loaded map's places (1σ, m); its heading error is
             ``map_error / 10`` rad (a metre of position error over ten metres of map).
-        gate: a measurement farther than this many standard deviations from the prediction is rejected.
+        gate: a measurement farther than this many standard deviations from the prediction is rejected
+            (the plane, x, y and heading, and the height each through their own gate).
+        persistence: this many rejected measurements in a row that agree with one another (within twice
+            their noise) are taken: then the prediction is what is wrong (wheels that slipped against an
+            obstacle, a missed ramp's top), and the pose takes the latest with its noise.
         alignment_pairs: recognitions that align a loaded map with the task's frame.
         alignment_spread: the least extent of those recognitions' positions, m (a shorter baseline leaves
             the map's heading undetermined).
 
     Presets (:meth:`preset`): ``wheel`` for wheel encoders (``distance_drift`` 0.02: the testbed's and a
-    typical encoder's relative error, taken as if systematic; 0.01 rad per radian turned and 0.0005 rad per
-    metre, about 3° per 100 m), ``visual`` for NeuroSLAM's own visual odometry (0.10 and 0.05: its distance
-    reads tens of percent off on blank floors, docs/generalization.md).
+    typical encoder's relative error, taken as if systematic; 0.005 rad per square root of the radians
+    turned and 0.0005 rad per metre, about 3° per 100 m), ``visual`` for NeuroSLAM's own visual odometry
+    (0.10 and 0.05: its distance reads tens of percent off on blank floors, docs/generalization.md).
     """
 
     distance_drift: float = 0.02
     height_drift: float = 0.02
-    turn_drift: float = 0.01
+    turn_drift: float = 0.005
     heading_drift: float = 0.0005
     recognition_error: float = 0.3
     recognition_heading_error: float = 0.05
     map_error: float = 0.5
     gate: float = 3.0
+    persistence: int = 3
     alignment_pairs: int = 5
     alignment_spread: float = 5.0
 
@@ -91,6 +99,9 @@ class LocalisationConfig:
                      turn_drift=self.turn_drift, heading_drift=self.heading_drift)
         positive(section, recognition_error=self.recognition_error, map_error=self.map_error, gate=self.gate,
                  recognition_heading_error=self.recognition_heading_error, alignment_spread=self.alignment_spread)
+        require(f"{section}.persistence", self.persistence,
+                isinstance(self.persistence, int) and not isinstance(self.persistence, bool) and self.persistence >= 2,
+                "must be a whole number >= 2")
         require(f"{section}.alignment_pairs", self.alignment_pairs,
                 isinstance(self.alignment_pairs, int) and not isinstance(self.alignment_pairs, bool)
                 and self.alignment_pairs >= 2, "must be a whole number >= 2")
@@ -112,7 +123,8 @@ class Localisation:
     Attributes:
         pose: (x, y, z, yaw) in the task's frame, m and rad.
         position_error: 1σ horizontal position uncertainty, m. height_error: 1σ, m. heading_error: 1σ, rad.
-        corrected: a recognition corrected the pose this frame. rejected: one was refused by the gate.
+        corrected: a recognition corrected the pose (a part of it) this frame. rejected: a part of one was
+            refused by its gate.
         aligned: the map NeuroSLAM is in is aligned with the task's frame (always, without a loaded map).
         estimate: NeuroSLAM's estimate for the frame (in the map's frame).
     """
@@ -164,6 +176,8 @@ class Localiser:
         self.pose = start.copy()
         self.start = start.copy()
         self.sigma = np.zeros(3)  # position, height, heading: 1σ
+        self._heading_base = 0.0  # the heading's 1σ at the last correction, and the turn and travel since
+        self._turned = self._travelled = 0.0
         self.loaded_map = loaded_map
         if loaded_map:
             slam.begin_session(start="unknown")
@@ -172,6 +186,7 @@ class Localiser:
         self._alignment_error = 0.0
         self._pairs: list[tuple[np.ndarray, np.ndarray, float]] = []  # (task pose, map pose, weight)
         self._places: dict[int, _Place] = {}
+        self._rejected: dict[str, list[np.ndarray]] = {"plane": [], "height": []}  # since the last accepted
         self._last_time: float | None = None
         self.corrections = 0
         self.rejections = 0
@@ -219,7 +234,11 @@ class Localiser:
                               wrap(float(yaw + turn))])
         c = self.config
         travelled = abs(distance)
-        self.sigma[2] += c.turn_drift * abs(turn) + c.heading_drift * travelled
+        self._turned += abs(turn)
+        self._travelled += travelled
+        # the turn's error is a random walk (variance per radian turned), the distance's a bias (per metre)
+        self.sigma[2] = math.hypot(self._heading_base, c.turn_drift * math.sqrt(self._turned)) \
+            + c.heading_drift * self._travelled
         self.sigma[0] += c.distance_drift * travelled + travelled * self.sigma[2]  # a heading error bends the path
         self.sigma[1] += c.height_drift * travelled
 
@@ -237,7 +256,8 @@ class Localiser:
 
     # correction ----------------------------------------------------------------------------------------
     def _correct(self, estimate: Estimate) -> tuple[bool, bool]:
-        """Fuse the recognised pose (returns corrected, rejected)."""
+        """Fuse the recognised pose, the plane (x, y, heading) and the height each through its own gate
+        (returns whether a part was corrected, whether a part was rejected)."""
         c = self.config
         measured = compose(self._alignment, estimate.pose)
         place = self._places.get(estimate.experience_id)
@@ -246,21 +266,45 @@ class Localiser:
         noise = np.array([math.hypot(place.position, c.recognition_error, self._alignment_error),
                           math.hypot(place.height, c.recognition_error),
                           math.hypot(place.heading, c.recognition_heading_error)])
-        innovation = np.array([float(np.linalg.norm(measured[:2] - self.pose[:2])), abs(measured[2] - self.pose[2]),
-                               abs(wrap(float(measured[3] - self.pose[3])))])
-        if np.any(innovation > c.gate * np.hypot(self.sigma, noise)):
+        difference = np.array([measured[0] - self.pose[0], measured[1] - self.pose[1], measured[2] - self.pose[2],
+                               wrap(float(measured[3] - self.pose[3]))])
+        bound = c.gate * np.hypot(self.sigma, noise)
+        corrected = rejected = False
+        for group, inside in (("plane", math.hypot(*difference[:2]) <= bound[0] and abs(difference[3]) <= bound[2]),
+                              ("height", abs(difference[2]) <= bound[1])):
+            axes, sigmas = ((0, 1, 3), (0, 0, 2)) if group == "plane" else ((2,), (1,))
+            history = self._rejected[group]
+            if inside:
+                history.clear()
+                sigma, spread = self.sigma[list(sigmas)], noise[list(sigmas)]
+                gain = sigma**2 / (sigma**2 + spread**2)
+                self.pose[list(axes)] += gain * difference[list(axes)]
+                fused = np.sqrt(sigma**2 * spread**2 / (sigma**2 + spread**2))
+                self.sigma[list(sigmas)] = np.minimum(sigma, np.maximum(fused, spread / math.sqrt(2)))
+                corrected = True
+                continue
+            history.append(difference[list(axes)])
+            recent = np.array(history[-c.persistence:])
+            agree = len(recent) == c.persistence and np.all(
+                np.abs(recent - recent.mean(axis=0)) <= 2 * noise[list(sigmas)])
+            if agree:  # the same correction, again and again: the prediction is what is wrong
+                self.pose[list(axes)] += difference[list(axes)]
+                self.sigma[list(sigmas)] = noise[list(sigmas)]
+                history.clear()
+                corrected = True
+                logger.info("%s re-localised by %d agreeing recognitions (%s)", group, c.persistence,
+                            np.round(difference[list(axes)], 2))
+            else:
+                rejected = True
+        self.pose[3] = wrap(float(self.pose[3]))
+        if corrected:
+            self.corrections += 1
+            self._heading_base, self._turned, self._travelled = float(self.sigma[2]), 0.0, 0.0
+        if rejected:
             self.rejections += 1
-            logger.debug("recognition at experience %d rejected (innovation %s)", estimate.experience_id,
-                         np.round(innovation, 2))
-            return False, True
-        gain = self.sigma**2 / (self.sigma**2 + noise**2)
-        self.pose[:2] += gain[0] * (measured[:2] - self.pose[:2])
-        self.pose[2] += gain[1] * (measured[2] - self.pose[2])
-        self.pose[3] = wrap(float(self.pose[3] + gain[2] * wrap(float(measured[3] - self.pose[3]))))
-        fused = np.sqrt(self.sigma**2 * noise**2 / (self.sigma**2 + noise**2))
-        self.sigma = np.minimum(self.sigma, np.maximum(fused, noise / math.sqrt(2)))
-        self.corrections += 1
-        return True, False
+            logger.debug("recognition at experience %d partly rejected (difference %s)", estimate.experience_id,
+                         np.round(difference, 2))
+        return corrected, rejected
 
 
 def align(pairs: list[tuple[np.ndarray, np.ndarray, float]]) -> tuple[np.ndarray, float]:

@@ -253,9 +253,11 @@ class PointNavEnv(DriveEnv):
     As ``NeuroSLAM/Drive-v0``: (forward speed m/s, yaw rate rad/s), clipped to the robot's range.
 
     ## Observation Space
-    ``Dict``: ``image`` and ``odometry`` as in ``NeuroSLAM/Drive-v0``, and ``goal``, ``Box(3,)`` float32:
+    ``Dict``: ``image`` and ``odometry`` as in ``NeuroSLAM/Drive-v0``; ``goal``, ``Box(3,)`` float32:
     straight-line distance to the goal (m), its bearing from the robot's heading (rad, counter-clockwise
-    positive, in [-pi, pi]) and its height above the robot (m).
+    positive, in [-pi, pi]) and its height above the robot (m); ``bumper``, ``MultiBinary(1)``: 1 while the
+    chassis touches the world (a mobile robot's bump switch; a robot that keeps pushing spins its wheels,
+    and its wheel odometry runs on).
 
     ## Rewards
     Progress along the drivable shortest path (metres of geodesic distance gained this step), minus 0.01
@@ -298,7 +300,8 @@ class PointNavEnv(DriveEnv):
     ## Version History
     * v1: starts, goals, reward and SPL on the drivable graph derived from the geometry (v0 used the route
       network: two geodesics for one episode); stalls end an episode; sequences of goals; the start faces
-      a random direction. v0's scores are not comparable and it is no longer registered.
+      a random direction; a ``bumper`` observation. v0's scores are not comparable and it is no longer
+      registered.
     * v0: initial version.
     """
 
@@ -351,7 +354,8 @@ class PointNavEnv(DriveEnv):
     def _observation_spaces(self, camera: CameraConfig, limits: np.ndarray) -> dict[str, spaces.Space]:
         bound = np.array([1e4, math.pi, 1e3], dtype=np.float32)
         return {**super()._observation_spaces(camera, limits), "goal": spaces.Box(
-            np.array([0.0, -math.pi, -1e3], dtype=np.float32), bound, dtype=np.float32)}
+            np.array([0.0, -math.pi, -1e3], dtype=np.float32), bound, dtype=np.float32),
+            "bumper": spaces.MultiBinary(1)}
 
     def _check_reset_options(self, options: dict[str, Any]) -> None:
         if options.get("goal") is not None:
@@ -445,6 +449,7 @@ class PointNavEnv(DriveEnv):
         bearing = math.atan2(offset[1], offset[0]) - truth.yaw
         bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
         observation["goal"] = np.array([np.linalg.norm(offset), bearing, offset[2]], dtype=np.float32)
+        observation["bumper"] = np.array([self._chassis_touching()], dtype=np.int8)
         if not self._goal_visible:
             observation["goal"][:] = 0.0
         self._goal_visible = self.goal_sensor == "gps"

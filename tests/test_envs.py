@@ -109,6 +109,24 @@ def test_a_goal_off_the_drivable_area_is_reported_and_ends_at_once():
         env.close()
 
 
+def test_the_bumper_closes_when_the_robot_drives_into_a_wall():
+    """Facing the car park's west wall (its inner face at x = -19.9) from 6 m away: the bumper reads 0 in
+    the open and 1 once the chassis touches the wall, as the environment's collision count says."""
+    env = gym.make("NeuroSLAM/PointNav-v1", world="carpark", stall_steps=None).unwrapped
+    try:
+        observation, _ = env.reset(seed=0, options={"start": [-14.0, -12.5, 0.0, math.pi], "goal": [10.0, -12.5, 0.0]})
+        assert observation["bumper"].tolist() == [0] and observation["bumper"] in env.observation_space["bumper"]
+        readings = []
+        for _ in range(120):
+            observation, _, _, _, info = env.step(np.array([1.0, 0.0]))
+            readings.append(int(observation["bumper"][0]))
+        first = readings.index(1)
+        assert info["pose"][0] < -19.0 and 50 < first and readings[-1] == 1
+        assert info["collisions"] == sum(readings)
+    finally:
+        env.close()
+
+
 def test_a_robot_that_stops_ends_its_episode_as_stalled():
     env = gym.make("NeuroSLAM/PointNav-v1", world="gen:3", stall_steps=30).unwrapped
     try:

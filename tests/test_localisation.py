@@ -89,8 +89,23 @@ def test_a_recognition_beyond_the_gate_is_rejected():
     where = drive(localiser, 501)  # sigma 1.0 m; the gate: 3 * hypot(1.0, 0.3) = 3.13 m
     slam.next = {"pose": where.pose + np.array([0.0, 4.0, 0.0, 0.0]), "loop_closure": True, "experience": 1}
     after = localiser.step(IMAGE, 50.1, odometry=STOPPED)
-    assert after.rejected and not after.corrected and localiser.rejections == 1
-    np.testing.assert_allclose(after.pose, where.pose)
+    assert after.rejected and localiser.rejections == 1
+    np.testing.assert_allclose(after.pose, where.pose)  # its height agreed (taken), its plane did not
+
+
+def test_recognitions_that_agree_again_and_again_outside_the_gate_are_taken():
+    """Three in a row, each 4 m north of the prediction (wheels that slipped): the third moves the pose."""
+    config = LocalisationConfig(distance_drift=0.02, turn_drift=0.0, heading_drift=0.0, recognition_error=0.3,
+                                persistence=3)
+    slam = ScriptedSLAM()
+    localiser = Localiser(slam, np.zeros(4), config)
+    where = drive(localiser, 501)
+    for k in range(3):
+        slam.next = {"pose": where.pose + np.array([0.0, 4.0, 0.0, 0.0]), "loop_closure": True, "experience": 1}
+        after = localiser.step(IMAGE, 50.1 + 0.1 * k, odometry=STOPPED)
+        assert after.rejected == (k < 2)
+    np.testing.assert_allclose(after.pose, where.pose + np.array([0.0, 4.0, 0.0, 0.0]))
+    assert after.position_error == pytest.approx(0.3)
 
 
 def test_a_loaded_map_is_aligned_from_several_recognitions_not_snapped_to_the_first():

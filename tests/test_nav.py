@@ -8,8 +8,10 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import sim  # noqa: F401 (registers the environments)
+import sim
 from neuroslam.lab.cli import main
+from neuroslam.lab.nav import PlannerAgent
+from sim.navigation import DrivableGraph
 
 
 def test_the_ground_truth_planner_reaches_its_goals_on_a_generated_world(tmp_path):
@@ -70,3 +72,16 @@ def test_a_vector_env_runs_the_same_episodes(tmp_path):
     for a, b in zip(*rows, strict=True):
         assert a["success"] == b["success"] and a["steps"] == b["steps"]
         assert float(a["path_length_m"]) == pytest.approx(float(b["path_length_m"]), abs=1e-9)
+
+
+def test_the_planner_backs_off_when_its_bumper_closes_and_then_plans_again():
+    world = sim.load_world("carpark")
+    agent = PlannerAgent(world, DrivableGraph.of(world), 0)
+    start, goal = np.array([-14.0, -12.5, 0.0, 0.0]), np.array([-6.0, -12.5, 0.0])
+    agent.reset(start, goal)
+    assert agent.act({"bumper": np.array([0])}, start)[0] > 0.5  # facing its goal: ahead
+    moved = np.array([-14.0, -11.0, 0.0, 0.0])  # where its pose says it is after the bump
+    actions = [agent.act({"bumper": np.array([int(k == 0)])}, moved) for k in range(5)]
+    assert all(action.tolist() == pytest.approx([-0.3, 0.0]) for action in actions)
+    assert np.allclose(agent.driver.route.waypoints[0], moved[:3])  # the new plan starts where it is
+    assert agent.act({"bumper": np.array([0])}, moved)[0] >= 0

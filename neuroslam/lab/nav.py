@@ -29,9 +29,9 @@ The agent protocol (a user's agent plugs in as ``module:Class``)::
 Scores per goal (one row of ``episodes.csv``): its outcome (``success``, ``stalled``, ``timeout``,
 ``unreachable``, ``tipped``; the environment's), success (within 1 m), SPL (success × geodesic / max(path
 driven, geodesic), the geodesic on the environment's drivable graph), path length, geodesic, steps,
-collisions, the localisation error when the goal ended (the pose source against the truth, 3-D, m), the
-pose source's own uncertainty then (1σ horizontal, m; 0 for ground truth, NaN where a source gives none)
-and the distance driven since the episode began (m).
+collisions, the localisation error when the goal ended (the pose source against the truth, 3-D, m) and
+its height part, the pose source's own uncertainty then (1σ horizontal, m; 0 for ground truth, NaN where
+a source gives none) and the distance driven since the episode began (m).
 """
 
 from __future__ import annotations
@@ -74,28 +74,47 @@ class PlannerAgent:
     world's geometry) from where its pose says it is, and follows it with the scripted drives' pure-pursuit
     controller, steering by its pose; where the path's next point lies more than ``turn_in_place`` off its
     heading it turns on the spot first (an arc from a standstill would swing the chassis into whatever it
-    stands beside). A goal no drivable path reaches is not driven toward: it stands."""
+    stands beside). When its bumper closes it backs off ``back_off_steps`` steps at 0.3 m/s and plans
+    again from where its pose then says it is. A goal no drivable path reaches is not driven toward: it
+    stands."""
 
-    def __init__(self, world, graph, seed: int, *, speed: float = 1.0, turn_in_place: float = 0.5):
+    def __init__(self, world, graph, seed: int, *, speed: float = 1.0, turn_in_place: float = 0.5,
+                 back_off_steps: int = 5):
         self.graph = graph
         self.speed = speed
         self.turn_in_place = turn_in_place
+        self.back_off_steps = back_off_steps
         self.driver = None
+        self.goal: np.ndarray | None = None
+        self._backing = 0
 
     def reset(self, start: np.ndarray, goal: np.ndarray) -> None:
+        self.goal = np.asarray(goal, dtype=float)
+        self._backing = 0
+        self._plan(start)
+
+    def _plan(self, start: np.ndarray) -> None:
         import sim
 
-        path, length = self.graph.shortest_path(start[:3], goal)
+        path, length = self.graph.shortest_path(start[:3], self.goal)
         if not math.isfinite(length):
             self.driver = None
             return
-        points = np.vstack([start[:3], path[1:], goal])
+        points = np.vstack([start[:3], path[1:], self.goal])
         keep = np.concatenate([[True], np.linalg.norm(np.diff(points[:, :2], axis=0), axis=1) > 1e-6])
         self.driver = sim.PurePursuit(sim.world.Route("plan", points[keep], False), speed=self.speed)
 
     def act(self, observation: dict, pose: np.ndarray) -> np.ndarray:
         if self.driver is None:
             return np.zeros(2, dtype=np.float32)
+        bumped = bool(np.asarray(observation.get("bumper", 0)).any())
+        if bumped and self._backing == 0:
+            self._backing = self.back_off_steps
+        if self._backing > 0:
+            self._backing -= 1
+            if self._backing == 0:
+                self._plan(pose)
+            return np.array([-0.3, 0.0], dtype=np.float32)
         speed, yaw_rate = self.driver.command(np.asarray(pose[:3]), float(pose[3]))
         target = self.driver.route.point_at(self.driver.progress + self.driver.lookahead)
         bearing = geometry.wrap(math.atan2(target[1] - pose[1], target[0] - pose[0]) - float(pose[3]))
@@ -137,6 +156,7 @@ class GoalResult:
     steps: int
     collisions: int
     localisation_error_m: float
+    height_error_m: float
     position_uncertainty_m: float
     distance_driven_m: float
 
@@ -211,7 +231,8 @@ class EpisodeRunner:
         self.results.append(GoalResult(
             self.world_name, self.seed, self.agent_name, self.pose_source, int(info["goal_index"]), outcome, success,
             float(info["spl"]), path_length, float(info["geodesic"]), int(info["goal_steps"]),
-            collisions - self._collisions, float(np.linalg.norm(self.pose[:3] - truth[:3])), float(self.uncertainty),
+            collisions - self._collisions, float(np.linalg.norm(self.pose[:3] - truth[:3])),
+            float(abs(self.pose[2] - truth[2])), float(self.uncertainty),
             self._driven))
         self._collisions = collisions
 

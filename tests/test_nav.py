@@ -40,7 +40,7 @@ def test_a_sequence_drives_its_goals_in_a_row_and_reports_each(tmp_path):
     assert main(["nav", "gen:2", "--sequential", "3", "--episodes", "1", "--out", str(tmp_path)]) == 0
     rows = list(csv.DictReader((tmp_path / "episodes.csv").open()))
     assert [row["goal_index"] for row in rows] == ["0", "1", "2"] and {row["seed"] for row in rows} == {"0"}
-    assert all(row["outcome"] == "success" and float(row["spl"]) > 0.9 for row in rows)
+    assert all(row["outcome"] == "success" and float(row["spl"]) > 0.9 and row["corrections"] == "0" for row in rows)
     driven = [float(row["distance_driven_m"]) for row in rows]
     assert driven == pytest.approx(np.cumsum([float(row["path_length_m"]) for row in rows]))
     (setting,) = json.loads((tmp_path / "summary.json").read_text())["settings"]

@@ -31,7 +31,8 @@ Scores per goal (one row of ``episodes.csv``): its outcome (``success``, ``stall
 driven, geodesic), the geodesic on the environment's drivable graph), path length, geodesic, steps,
 collisions, the localisation error when the goal ended (the pose source against the truth, 3-D, m) and
 its height part, the pose source's own uncertainty then (1σ horizontal, m; 0 for ground truth, NaN where
-a source gives none) and the distance driven since the episode began (m).
+a source gives none), the recognitions that corrected it during the goal (the localiser's; 0 for the
+others) and the distance driven since the episode began (m).
 """
 
 from __future__ import annotations
@@ -158,6 +159,7 @@ class GoalResult:
     localisation_error_m: float
     height_error_m: float
     position_uncertainty_m: float
+    corrections: int
     distance_driven_m: float
 
 
@@ -180,6 +182,8 @@ class EpisodeRunner:
         self.uncertainty = 0.0 if pose_source == "groundtruth" else math.nan
         self._driven = 0.0  # m driven in the goals that ended
         self._collisions = 0  # the environment's count when the current goal began
+        self._corrections = 0  # the localiser's count when the current goal began
+        self.localiser = None
         self._last_finished = False
 
     def begin(self, observation: dict, info: dict) -> None:
@@ -228,12 +232,14 @@ class EpisodeRunner:
         path_length, success = float(info["path_length"]), bool(info["success"])
         self._driven += path_length
         collisions = int(info["collisions"])
+        corrections = 0 if self.localiser is None else self.localiser.corrections
         self.results.append(GoalResult(
             self.world_name, self.seed, self.agent_name, self.pose_source, int(info["goal_index"]), outcome, success,
             float(info["spl"]), path_length, float(info["geodesic"]), int(info["goal_steps"]),
             collisions - self._collisions, float(np.linalg.norm(self.pose[:3] - truth[:3])),
-            float(abs(self.pose[2] - truth[2])), float(self.uncertainty),
+            float(abs(self.pose[2] - truth[2])), float(self.uncertainty), corrections - self._corrections,
             self._driven))
+        self._corrections = corrections
         self._collisions = collisions
 
     def finish(self, info: dict) -> list[GoalResult]:

@@ -160,8 +160,9 @@ def build_parser() -> argparse.ArgumentParser:
         "(groundtruth; odometry: the wheel encoders; slam: the wheels corrected where NeuroSLAM recognises a "
         "place, with --load-map a map of an earlier drive of the same world; slam-camera: the same on the "
         "camera alone). Writes OUT/episodes.csv (a row per goal: outcome, success, spl, path length, "
-        "geodesic, steps, collisions, localisation error, the pose source's uncertainty, distance driven) "
-        "and OUT/summary.json (success, SPL and their 95 %% intervals, localisation error and its trend).")
+        "geodesic, steps, collisions, localisation error, the pose source's uncertainty and corrections, "
+        "distance driven) and OUT/summary.json (success, SPL and their 95 %% intervals, localisation error "
+        "and its trend).")
     nav.add_argument("worlds", nargs="+", metavar="WORLD", help="built-in names, gen:SEED or MJCF paths")
     nav.add_argument("--agent", default="planner", help="random, planner or module:Class (default: planner)")
     nav.add_argument("--pose", choices=["groundtruth", "odometry", "slam", "slam-camera"], default="groundtruth",

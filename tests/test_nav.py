@@ -63,12 +63,14 @@ def test_the_start_goal_sensor_reads_only_at_reset():
 
 def test_a_vector_env_runs_the_same_episodes(tmp_path):
     """--num-envs 2: the episodes run in a gymnasium async vector env (spawned processes), each slot reset
-    with its episode's own seed, so they are the episodes the single environment runs."""
+    with its episode's own seed, so they are the episodes the single environment runs; a sequence's next
+    goal reaches each slot's agent (the vector env's info keeps it only for the slots that have one)."""
     single, vector = tmp_path / "single", tmp_path / "vector"
-    assert main(["nav", "gen:2", "--episodes", "3", "--out", str(single)]) == 0
-    assert main(["nav", "gen:2", "--episodes", "3", "--num-envs", "2", "--out", str(vector)]) == 0
+    assert main(["nav", "gen:2", "--episodes", "3", "--sequential", "2", "--out", str(single)]) == 0
+    assert main(["nav", "gen:2", "--episodes", "3", "--sequential", "2", "--num-envs", "2", "--out", str(vector)]) == 0
     rows = [list(csv.DictReader((folder / "episodes.csv").open())) for folder in (single, vector)]
-    assert [row["seed"] for row in rows[1]] == ["0", "1", "2"]
+    assert [(row["seed"], row["goal_index"]) for row in rows[1]] == [(str(seed), str(goal)) for seed in range(3)
+                                                                     for goal in range(2)]
     for a, b in zip(*rows, strict=True):
         assert a["success"] == b["success"] and a["steps"] == b["steps"]
         assert float(a["path_length_m"]) == pytest.approx(float(b["path_length_m"]), abs=1e-9)

@@ -412,8 +412,7 @@ class SelfMotionSource:
     """Turns each frame into the self-motion the SLAM integrates, for one odometry mode.
 
     ``visual`` returns None (the SLAM's visual odometry measures it from the image); ``wheel`` takes the
-    encoders' speed (its horizontal part, by the camera's pitch) and turn rate and the camera's pitch (the
-    visual odometry still runs, for the climb);
+    encoders' speed and turn rate and the camera's pitch (the visual odometry still runs, for the climb);
     ``visual-inertial`` takes the camera's speed and turn rate and the pitch from the IMU's gravity
     (:class:`~neuroslam.inertial.GravityPitch`). Call it once per frame, in order.
 
@@ -447,5 +446,5 @@ class SelfMotionSource:
             raise InvalidParameterError("odometry", self.mode, f"frame {frame.index} has no wheel odometry")
         visual = odometry.step(grey(frame.image), dt)
         seen = None if visual.observed is None else Observed(height=visual.observed.height)
-        speed = frame.wheels.forward_speed  # along the surface: on a ramp its horizontal part is speed × cos(pitch)
-        return SelfMotion(speed * math.cos(odometry.pitch), frame.wheels.yaw_rate, odometry.climb_rate_at(speed), seen)
+        speed = frame.wheels.forward_speed
+        return SelfMotion(speed, frame.wheels.yaw_rate, odometry.climb_rate_at(speed), seen)

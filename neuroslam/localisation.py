@@ -43,6 +43,7 @@ import numpy as np
 from .config.checks import non_negative, positive, require
 from .errors import InvalidInputError
 from .estimate import Estimate
+from .evaluation.registration import fit_yaw_translation, transform_points
 from .geometry import compose, inverse, wrap
 from .slam import NeuroSLAM
 from .vision.odometry import SelfMotion
@@ -309,29 +310,17 @@ class Localiser:
 
 def align(pairs: list[tuple[np.ndarray, np.ndarray, float]]) -> tuple[np.ndarray, float]:
     """The rigid transform (x, y, z, yaw) taking map poses to task poses from ``(task pose, map pose,
-    weight)`` pairs: a weighted least-squares fit of the planar rotation and translation (the 2-D Kabsch
-    solution) and the weighted mean height offset, refitted once without the pairs beyond three times the
-    median residual. Returns it and the kept pairs' RMS residual, m."""
+    weight)`` pairs: the weighted least-squares fit of :func:`~neuroslam.evaluation.registration.
+    fit_yaw_translation`, refitted once without the pairs beyond three times the median residual. Returns
+    it and the kept pairs' RMS residual, m."""
     task = np.array([pair[0][:3] for pair in pairs])
     mapped = np.array([pair[1][:3] for pair in pairs])
     weights = np.array([pair[2] for pair in pairs])
     keep = np.ones(len(pairs), dtype=bool)
     for _ in range(2):
-        w = weights[keep] / weights[keep].sum()
-        a, b = mapped[keep], task[keep]
-        a_mean, b_mean = w @ a, w @ b
-        da, db = a[:, :2] - a_mean[:2], b[:, :2] - b_mean[:2]
-        cross = float(np.sum(w * (da[:, 0] * db[:, 1] - da[:, 1] * db[:, 0])))
-        dot = float(np.sum(w * (da[:, 0] * db[:, 0] + da[:, 1] * db[:, 1])))
-        yaw = math.atan2(cross, dot)
-        c, s = math.cos(yaw), math.sin(yaw)
-        rotated = np.array([c * a_mean[0] - s * a_mean[1], s * a_mean[0] + c * a_mean[1]])
-        transform = np.array([b_mean[0] - rotated[0], b_mean[1] - rotated[1], b_mean[2] - a_mean[2], yaw])
-        moved = compose(transform, np.column_stack([mapped, np.zeros(len(mapped))]))[:, :3]
-        residuals = np.linalg.norm(moved - task, axis=1)
-        median = float(np.median(residuals[keep]))
-        keep = residuals <= max(3 * median, 1e-9)
+        yaw, translation = fit_yaw_translation(mapped[keep], task[keep], weights[keep])
+        residuals = np.linalg.norm(transform_points(mapped, yaw, translation) - task, axis=1)
+        keep = residuals <= max(3 * float(np.median(residuals[keep])), 1e-9)
         if keep.sum() < 2:
             keep = residuals <= np.sort(residuals)[1]
-    return transform, float(np.sqrt(np.mean(residuals[keep] ** 2)))
-
+    return np.array([*translation, yaw]), float(np.sqrt(np.mean(residuals[keep] ** 2)))

@@ -31,7 +31,7 @@ from scipy.spatial import cKDTree
 
 from ..geometry import compose, wrap
 
-__all__ = ["MapComparison", "compare_maps"]
+__all__ = ["MapComparison", "compare_maps", "fit_yaw_translation", "transform_points"]
 
 
 @dataclass(frozen=True)
@@ -62,19 +62,27 @@ class MapComparison:
                 "iterations": self.iterations, "pairs": self.pairs}
 
 
-def _transform(points: np.ndarray, yaw: float, translation: np.ndarray) -> np.ndarray:
+def transform_points(points: np.ndarray, yaw: float, translation: np.ndarray) -> np.ndarray:
     """``points`` (N, 3; m) rotated by ``yaw`` (rad) about z through the origin, then shifted by ``translation``."""
     motion = np.array([*translation, yaw])
     return compose(motion, np.column_stack([points, np.zeros(len(points))]))[:, :3]
 
 
-def _fit(source: np.ndarray, target: np.ndarray) -> tuple[float, np.ndarray]:
-    """The rotation about z and translation taking ``source`` onto ``target`` (paired rows), least squares."""
-    source_centre, target_centre = source.mean(axis=0), target.mean(axis=0)
+def fit_yaw_translation(source: np.ndarray, target: np.ndarray, weights: np.ndarray | None = None
+                        ) -> tuple[float, np.ndarray]:
+    """The rotation about z (rad) and translation (m) taking ``source`` onto ``target`` (paired (N, 3) rows,
+    m), weighted least squares in closed form (``weights``: (N,), equal when None): the 2-D Umeyama rotation
+    of the horizontal parts, and the (weighted) mean of the height differences."""
+    if weights is None:
+        source_centre, target_centre, w = source.mean(axis=0), target.mean(axis=0), 1.0
+    else:
+        w = np.asarray(weights, dtype=float) / float(np.sum(weights))
+        source_centre, target_centre, w = w @ source, w @ target, w[:, None]
     a, b = source[:, :2] - source_centre[:2], target[:, :2] - target_centre[:2]
-    # the 2-D rotation maximising sum b · R a: angle of sum (a x b, a · b)
-    yaw = math.atan2(float(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])), float(np.sum(a * b)))
-    translation = target_centre - _transform(source_centre[None], yaw, np.zeros(3))[0]
+    # the 2-D rotation maximising sum w b · R a: angle of sum w (a x b, a · b)
+    cross = (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])[:, None]
+    yaw = math.atan2(float(np.sum(w * cross)), float(np.sum(w * a * b)))
+    translation = target_centre - transform_points(source_centre[None], yaw, np.zeros(3))[0]
     return yaw, translation
 
 
@@ -101,21 +109,21 @@ def compare_maps(a: np.ndarray, b: np.ndarray, *, iterations: int = 100, outlier
     centred = a - a.mean(axis=0)
     best = (math.inf, 0.0)
     for yaw in np.radians(np.arange(0, 360, 10)):
-        distances, _ = tree.query(_transform(centred, yaw, np.zeros(3)) + b.mean(axis=0))
+        distances, _ = tree.query(transform_points(centred, yaw, np.zeros(3)) + b.mean(axis=0))
         best = min(best, (float(np.median(distances)), float(yaw)))
     yaw = best[1]
-    translation = a.mean(axis=0) + shift - _transform(a.mean(axis=0)[None], yaw, np.zeros(3))[0]
+    translation = a.mean(axis=0) + shift - transform_points(a.mean(axis=0)[None], yaw, np.zeros(3))[0]
     iteration = 0
     for iteration in range(1, iterations + 1):  # noqa: B007 (the count is reported)
-        moved = _transform(a, yaw, translation)
+        moved = transform_points(a, yaw, translation)
         distances, nearest = tree.query(moved)
         keep = _inliers(distances, outlier_factor, minimum_outlier_distance)
-        step_yaw, step_translation = _fit(moved[keep], b[nearest[keep]])
+        step_yaw, step_translation = fit_yaw_translation(moved[keep], b[nearest[keep]])
         yaw = wrap(float(yaw + step_yaw))
-        translation = _transform(translation[None], step_yaw, step_translation)[0]
+        translation = transform_points(translation[None], step_yaw, step_translation)[0]
         if abs(step_yaw) < 1e-6 and np.abs(step_translation).max() < 1e-6:
             break
-    distances, _ = tree.query(_transform(a, yaw, translation))
+    distances, _ = tree.query(transform_points(a, yaw, translation))
     keep = _inliers(distances, outlier_factor, minimum_outlier_distance)
     return MapComparison(rmse_m=float(np.sqrt(np.mean(distances[keep] ** 2))),
                          rmse_all_m=float(np.sqrt(np.mean(distances**2))), inlier_fraction=float(keep.mean()),

@@ -23,8 +23,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import sim  # noqa: F401 (registers the NeuroSLAM/... environments)
-from neuroslam import geometry
-from neuroslam.lab.nav import EpisodeRunner
+from neuroslam.lab.nav import EpisodeRunner, wheel_pose
 
 limit = int(os.environ.get("NEUROSLAM_EXAMPLE_FRAMES", "0")) or 100_000
 world = "carpark"
@@ -39,10 +38,7 @@ for _ in range(limit):
     observation, _, terminated, truncated, info = env.step(runner.act(observation))
     runner.observe(observation, info)
     truth = np.array(info["pose"])
-    # the wheel encoders alone: their (x, y, yaw) since the start, at the start's height (they measure none)
-    x, y, yaw = info["odometry_pose"]
-    travelled = geometry.relative(np.array([*wheel_origin[:2], 0.0, wheel_origin[2]]), np.array([x, y, 0.0, yaw]))
-    wheels = geometry.compose(start, travelled)
+    wheels = wheel_pose(start, wheel_origin, info["odometry_pose"])  # the wheel encoders alone
     times.append(info["time"])
     slam_errors.append(float(np.linalg.norm(runner.pose[:3] - truth[:3])))
     wheel_errors.append(float(np.linalg.norm(wheels[:3] - truth[:3])))

@@ -230,9 +230,6 @@ class DriveEnv(gym.Env):
         }
 
 
-OUTCOMES = ("success", "stalled", "timeout", "unreachable", "tipped")  # how a goal ends (info["goal_outcome"])
-
-
 class PointNavEnv(DriveEnv):
     """## Description
     Point-goal navigation across levels: drive to a goal that may be on another floor, reached over the

@@ -52,9 +52,19 @@ from ..errors import InvalidParameterError
 from ..localisation import LocalisationConfig, Localiser
 from .frames import RolloutStream, SelfMotionSource
 
-__all__ = ["POSE_SOURCES", "GoalResult", "PlannerAgent", "RandomAgent", "load_agent", "run_episode", "summarise"]
+__all__ = ["POSE_SOURCES", "GoalResult", "PlannerAgent", "RandomAgent", "load_agent", "run_episode", "summarise",
+           "wheel_pose"]
 
 POSE_SOURCES = ("groundtruth", "odometry", "slam", "slam-camera")
+
+
+def wheel_pose(start: np.ndarray, origin: np.ndarray, odometry_pose: np.ndarray) -> np.ndarray:
+    """The wheel encoders' pose in the world: their (x, y, yaw) travel since ``origin`` (their reading at the
+    start, m and rad) applied to the ``start`` pose (x, y, z, yaw); the wheels measure no height, so the
+    start's is kept."""
+    origin, (x, y, yaw) = np.asarray(origin, dtype=float), np.asarray(odometry_pose, dtype=float)
+    travelled = geometry.relative(np.array([origin[0], origin[1], 0.0, origin[2]]), np.array([x, y, 0.0, yaw]))
+    return geometry.compose(np.asarray(start, dtype=float), travelled)
 
 
 class RandomAgent:
@@ -215,10 +225,8 @@ class EpisodeRunner:
         self.steps += 1
         if self.pose_source == "groundtruth":
             self.pose = np.array(info["pose"], dtype=float)
-        elif self.pose_source == "odometry":  # the wheel encoders' (x, y, yaw) since the start
-            origin, (x, y, yaw) = self.odometry_origin, np.array(info["odometry_pose"], dtype=float)
-            travelled = geometry.relative(np.array([origin[0], origin[1], 0.0, origin[2]]), np.array([x, y, 0.0, yaw]))
-            self.pose = geometry.compose(self.start, travelled)  # the wheels measure no height: the start's is kept
+        elif self.pose_source == "odometry":
+            self.pose = wheel_pose(self.start, self.odometry_origin, info["odometry_pose"])
         else:
             self._localise(observation, info, self.steps)
         self._last_finished = bool(info["goal_finished"])

@@ -241,6 +241,10 @@ class PointNavEnv(DriveEnv):
     With ``goals=N`` (``NeuroSLAM/SequentialPointNav-v0``, default 50) the robot drives N goals in a row:
     when one ends, the next is drawn from wherever the robot is, and nothing is reset (not the pose, not the
     wheel odometry, not the clock), the long-horizon setting in which a robot's odometry drifts without bound.
+    With ``patrol=K`` as well, the goals are a patrol's K places, visited in order round after round (goal
+    ``i`` is place ``i mod K``): the places are drawn when the episode starts, the first from the start and
+    each next from the one before, as a sequence's goals are; a round ends where it began. A patrol re-drives
+    its routes in the same direction, the setting in which a robot can recognise the places it passed.
 
     Everything is measured on one graph, the drivable surface derived from the world's geometry
     (:class:`sim.navigation.DrivableGraph`, ramp-aware, decks and mezzanines included): start and goal
@@ -291,14 +295,14 @@ class PointNavEnv(DriveEnv):
     ## Arguments
     As ``NeuroSLAM/Drive-v0``, plus ``success_distance``, ``min_goal_distance`` and ``max_goal_distance``
     (m), ``goal_sensor`` (``"gps"`` or ``"start"``), ``goals`` (goals per episode), ``goal_steps`` (steps
-    per goal before ``timeout``; None for no limit), ``stall_steps`` (None: never stall) and
-    ``stall_distance`` (m).
+    per goal before ``timeout``; None for no limit), ``patrol`` (places in a patrol's round, at least 2;
+    None: every goal drawn afresh), ``stall_steps`` (None: never stall) and ``stall_distance`` (m).
 
     ## Version History
     * v1: starts, goals, reward and SPL on the drivable graph derived from the geometry (v0 used the route
       network: two geodesics for one episode); stalls end an episode; sequences of goals; the start faces
-      a random direction; a ``bumper`` observation. v0's scores are not comparable and it is no longer
-      registered.
+      a random direction; a ``bumper`` observation; patrols (``patrol``). v0's scores are not comparable and
+      it is no longer registered.
     * v0: initial version.
     """
 
@@ -314,6 +318,7 @@ class PointNavEnv(DriveEnv):
         goal_sensor: str = "gps",
         goals: int = 1,
         goal_steps: int | None = 1500,
+        patrol: int | None = None,
         stall_steps: int | None = 100,
         stall_distance: float = 0.25,
         **kwargs: Any,
@@ -332,6 +337,9 @@ class PointNavEnv(DriveEnv):
                                             + ("" if field == "goals" else " (or None)"))
         if goals is None:
             raise InvalidParameterError("goals", goals, "must be a positive whole number")
+        if patrol is not None and (not isinstance(patrol, (int, np.integer)) or isinstance(patrol, bool)
+                                   or patrol < 2):
+            raise InvalidParameterError("patrol", patrol, "must be a whole number of places >= 2 (or None)")
         if not isinstance(stall_distance, (int, float)) or not 0 < stall_distance < success_distance:
             raise InvalidParameterError("stall_distance", stall_distance, "must be between 0 and success_distance (m)")
         super().__init__(world, **kwargs)
@@ -340,6 +348,8 @@ class PointNavEnv(DriveEnv):
         self.min_goal_distance = min_goal_distance
         self.max_goal_distance = max_goal_distance
         self.goals, self.goal_steps = int(goals), goal_steps
+        self.patrol = None if patrol is None else int(patrol)
+        self._places: list[np.ndarray] = []  # a patrol's places, in the order visited
         self.stall_steps, self.stall_distance = stall_steps, float(stall_distance)
         self.graph = DrivableGraph.of(self.world)
         self.goal = np.zeros(3)
@@ -369,20 +379,32 @@ class PointNavEnv(DriveEnv):
         self._goal_index = 0
         self._finished = None
         requested = self._requested_goal
-        self._begin_goal(None if requested is None else _finite_vector(requested, 3, "options.goal",
-                                                                        "must be [x, y, z] in metres"))
+        first = None if requested is None else _finite_vector(requested, 3, "options.goal",
+                                                               "must be [x, y, z] in metres")
+        self._places = []
+        if self.patrol is not None:  # the round's places: the first from the start, each next from the last
+            self._places = [self._draw_goal(self.simulation.ground_truth().position) if first is None else first]
+            while len(self._places) < self.patrol:
+                self._places.append(self._draw_goal(self._places[-1]))
+            first = self._places[0]
+        self._begin_goal(first)
+
+    def _draw_goal(self, position: np.ndarray) -> np.ndarray:
+        """A standing place at a drivable distance from ``position`` between the goal distances (the
+        farthest one in a smaller world), drawn with the episode's generator."""
+        field = self.graph.distances_from(self.graph.nearest(position))
+        candidates = field[self.graph.standing]
+        in_range = (candidates >= self.min_goal_distance) & (candidates <= self.max_goal_distance)
+        eligible = self.graph.standing[in_range]
+        if eligible.size == 0:  # a small world (or a robot stuck off the graph): the farthest standing place
+            eligible = self.graph.standing[[int(np.argmax(np.where(np.isfinite(candidates), candidates, -1)))]]
+        return self.graph.points[int(self.np_random.choice(eligible))].copy()
 
     def _begin_goal(self, goal: np.ndarray | None) -> None:
         """Give the robot a goal (drawn from where it stands when ``goal`` is None) and start its scores."""
         position = self.simulation.ground_truth().position
         if goal is None:
-            field = self.graph.distances_from(self.graph.nearest(position))
-            candidates = field[self.graph.standing]
-            in_range = (candidates >= self.min_goal_distance) & (candidates <= self.max_goal_distance)
-            eligible = self.graph.standing[in_range]
-            if eligible.size == 0:  # a small world (or a robot stuck off the graph): the farthest standing place
-                eligible = self.graph.standing[[int(np.argmax(np.where(np.isfinite(candidates), candidates, -1)))]]
-            goal = self.graph.points[int(self.np_random.choice(eligible))].copy()
+            goal = self._draw_goal(position)
         self.goal = np.asarray(goal, dtype=float).copy()
         self._goal_field = self.graph.goal_field(self.goal, reach=self.success_distance)
         self._distance = self.graph.distance_to(self._goal_field, position)
@@ -426,8 +448,8 @@ class PointNavEnv(DriveEnv):
         success = self._success
         if tipped or self._goal_index + 1 >= self.goals:
             return reward, success, not success
-        self._goal_index += 1  # the next goal, from where the robot is; the observation shows it
-        self._begin_goal(None)
+        self._goal_index += 1  # the next goal (from where the robot is, or the patrol's next place)
+        self._begin_goal(self._places[self._goal_index % len(self._places)] if self._places else None)
         self._finished["next_goal"] = self.goal.copy()
         return reward, False, False
 

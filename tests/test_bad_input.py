@@ -343,6 +343,7 @@ def test_bad_worlds_and_routes_are_refused_with_what_and_where(tmp_path):
         (lambda: sim.load_world("carpark").route("nope"), sim.RouteError, "route='nope'"),
         (lambda: sim.ScriptedDrive("carpark", route="nope"), sim.RouteError, "route='nope'"),
         (lambda: sim.ScriptedDrive("carpark", laps=0), sim.InvalidParameterError, "laps=0"),
+        (lambda: gym.make("NeuroSLAM/SequentialPointNav-v0", patrol=1), sim.InvalidParameterError, "patrol=1"),
         # waypoints off every floor: found when the world is built, before any driving
         (lambda: sim.ScriptedDrive(sim.load_world("carpark", routes=_routes(
             tmp_path, {"routes": {"far": {"waypoints": [[500, 500, 0], [510, 500, 0]]}}}))), sim.RouteError,
@@ -358,7 +359,7 @@ def test_bad_worlds_and_routes_are_refused_with_what_and_where(tmp_path):
         with pytest.raises(kind) as error:
             build()
         assert message in _one_line(error.value), (message, str(error.value))
-    assert len(cases) == 22
+    assert len(cases) == 23
 
 
 def test_a_floor_is_what_the_robot_can_stand_on_not_what_it_can_see(tmp_path):
@@ -552,6 +553,7 @@ def test_the_command_line_turns_every_kind_of_bad_input_into_one_line_and_exit_c
         (["run", str(tmp_path / "short.txt")], "not a readable folder"),
         (["run", str(frames), "--load-map", str(tmp_path / "short.txt")], "truncated or corrupted"),
         (["nav", "carpark", "--episodes", "1", "--pose", "slam", "--load-map", str(tmp_path)], "is a directory"),
+        (["nav", "carpark", "--episodes", "1", "--patrol", "3"], "--patrol=3"),
     ]
     for args, message in cases:
         assert main([*args, "--out", str(tmp_path / "out")]) == 2, args

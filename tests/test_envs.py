@@ -173,6 +173,38 @@ def test_a_sequence_gives_the_next_goal_from_where_the_robot_is_without_a_reset(
         env.close()
 
 
+def test_a_patrol_visits_its_places_in_order_round_after_round():
+    """SequentialPointNav with patrol=3: goal i is place i mod 3; the places are standing places, each at a
+    goal distance from the one before (the first from the start), and the first is the goal a plain sequence
+    with the same seed draws (a patrol adds draws, it does not change the first)."""
+    env = gym.make("NeuroSLAM/SequentialPointNav-v0", world="gen:3", goals=7, patrol=3, stall_steps=3).unwrapped
+    plain = gym.make("NeuroSLAM/SequentialPointNav-v0", world="gen:3", goals=2, stall_steps=3).unwrapped
+    try:
+        _, info = env.reset(seed=6)
+        start = info["pose"][:3]
+        goals = [info["goal"]]
+        for _ in range(30):
+            _, _, terminated, truncated, info = env.step(np.array([0.0, 0.0], dtype=np.float32))
+            if "next_goal" in info:
+                goals.append(info["next_goal"])
+            if terminated or truncated:
+                break
+        assert len(goals) == 7 and info["goal_index"] == 6
+        for index, goal in enumerate(goals):
+            np.testing.assert_array_equal(goal, goals[index % 3])
+        assert len({tuple(goal) for goal in goals}) == 3
+        graph = env.graph
+        for before, place in zip([start, *goals[:2]], goals[:3], strict=True):
+            assert graph.nearest(place) in graph.standing
+            distance = graph.distances_from(graph.nearest(before))[graph.nearest(place)]
+            assert env.min_goal_distance <= distance <= env.max_goal_distance
+        _, plain_info = plain.reset(seed=6)
+        np.testing.assert_array_equal(plain_info["goal"], goals[0])
+    finally:
+        env.close()
+        plain.close()
+
+
 def test_pointnav_goals_span_levels():
     env = gym.make("NeuroSLAM/PointNav-v1", world="carpark", max_goal_distance=200.0).unwrapped
     try:

@@ -257,21 +257,23 @@ class EpisodeRunner:
         return self.results
 
 
-def _environment(world_name: str, goal_sensor: str, max_steps: int, goals: int = 1):
+def _environment(world_name: str, goal_sensor: str, max_steps: int, goals: int = 1, patrol: int | None = None):
     import gymnasium as gym
 
     import sim  # noqa: F401 (registers the environments)
 
     if goals > 1:
         return gym.make("NeuroSLAM/SequentialPointNav-v0", world=world_name, goal_sensor=goal_sensor, goals=goals,
-                        goal_steps=max_steps)
+                        goal_steps=max_steps, patrol=patrol)
     return gym.make("NeuroSLAM/PointNav-v1", world=world_name, goal_sensor=goal_sensor, max_episode_steps=max_steps)
 
 
 def run_episode(world_name: str, seed: int, agent_name: str, pose_source: str, *, graph, goal_sensor: str = "gps",
-                load_map: Path | None = None, max_steps: int = 1500, goals: int = 1) -> list[GoalResult]:
-    """One seeded episode (``goals`` in a row; ``max_steps`` per goal); a row per goal."""
-    env = _environment(world_name, goal_sensor, max_steps, goals)
+                load_map: Path | None = None, max_steps: int = 1500, goals: int = 1,
+                patrol: int | None = None) -> list[GoalResult]:
+    """One seeded episode (``goals`` in a row, the places of a ``patrol`` round after round where given;
+    ``max_steps`` per goal); a row per goal."""
+    env = _environment(world_name, goal_sensor, max_steps, goals, patrol)
     try:
         observation, info = env.reset(seed=seed)
         runner = EpisodeRunner(world_name, seed, agent_name, pose_source, graph=graph, world=env.unwrapped.world,
@@ -295,7 +297,8 @@ def _slot(batch: dict, index: int) -> dict:
 
 def run_episodes_vector(world_name: str, seeds: list[int], agent_name: str, pose_source: str, *, graph, world,
                         num_envs: int, goal_sensor: str = "gps", load_map: Path | None = None,
-                        max_steps: int = 1500, goals: int = 1, progress=None) -> list[GoalResult]:
+                        max_steps: int = 1500, goals: int = 1, patrol: int | None = None,
+                        progress=None) -> list[GoalResult]:
     """The episodes of ``seeds`` on a gymnasium async vector environment of ``num_envs`` copies (spawned
     processes; automatic resets off, so each slot is reset with the next episode's own seed and every
     setting sees the same episodes). Returns their rows in the order of ``seeds``."""
@@ -304,7 +307,7 @@ def run_episodes_vector(world_name: str, seeds: list[int], agent_name: str, pose
     import gymnasium as gym
 
     count = min(num_envs, len(seeds))
-    make = functools.partial(_environment, world_name, goal_sensor, max_steps, goals)
+    make = functools.partial(_environment, world_name, goal_sensor, max_steps, goals, patrol)
     envs = gym.vector.AsyncVectorEnv([make] * count, context="spawn",
                                      autoreset_mode=gym.vector.AutoresetMode.DISABLED)
     pending = list(seeds)

@@ -174,6 +174,9 @@ def build_parser() -> argparse.ArgumentParser:
     nav.add_argument("--episodes", type=positive_int, default=20, help="episodes per world (default: 20)")
     nav.add_argument("--sequential", type=positive_int, default=1, metavar="N",
                      help="goals per episode, driven in a row from wherever the last ended (default: 1)")
+    nav.add_argument("--patrol", type=positive_int, metavar="K",
+                     help="with --sequential N: the goals are K places visited in order, round after round "
+                     "(a patrol re-drives its routes; default: every goal drawn afresh)")
     nav.add_argument("--seed", type=int, default=0, help="first episode's seed (default: 0)")
     nav.add_argument("--max-steps", type=positive_int, default=1500,
                      help="steps per goal before it times out (default: 1500 = 150 s)")

@@ -108,6 +108,8 @@ def nav_command(args: argparse.Namespace) -> int:
     load_agent(args.agent)  # an unknown agent fails before any episode
     if args.load_map is not None and not args.pose.startswith("slam"):
         raise InvalidParameterError("--load-map", str(args.load_map), "is used with --pose slam or slam-camera only")
+    if args.patrol is not None and (args.patrol < 2 or args.sequential < 2):
+        raise InvalidParameterError("--patrol", args.patrol, "needs at least 2 places and --sequential N with N >= 2")
     worlds = {name: sim.load_world(name) for name in args.worlds}  # bad worlds and maps fail before any episode
     if args.load_map is not None:
         from ...slam import NeuroSLAM
@@ -121,7 +123,8 @@ def nav_command(args: argparse.Namespace) -> int:
             graph = DrivableGraph.of(world)
             seeds = [args.seed + k for k in range(args.episodes)]
             settings = {"graph": graph, "goal_sensor": args.goal_sensor, "load_map": args.load_map,
-                        "max_steps": args.max_steps, "goals": args.sequential}
+                        "max_steps": args.max_steps, "goals": args.sequential,
+                        "patrol": args.patrol}
             if args.num_envs > 1:
                 results += run_episodes_vector(name, seeds, args.agent, args.pose, world=world,
                                                num_envs=args.num_envs, progress=bar, **settings)

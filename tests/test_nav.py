@@ -47,6 +47,17 @@ def test_a_sequence_drives_its_goals_in_a_row_and_reports_each(tmp_path):
     assert setting["goals"] == 3 and setting["episodes"] == 1 and setting["localisation_error_by_goal"] == [0, 0, 0]
 
 
+def test_a_patrol_re_drives_its_round(tmp_path):
+    """--sequential 4 --patrol 2: places A, B, A, B; the ground-truth planner reaches each, and the second
+    A-to-B leg starts where the first did (within the 1 m of success at both ends: geodesics within 2 m)."""
+    assert main(["nav", "gen:2", "--sequential", "4", "--patrol", "2", "--episodes", "1", "--out",
+                 str(tmp_path)]) == 0
+    rows = list(csv.DictReader((tmp_path / "episodes.csv").open()))
+    assert [row["outcome"] for row in rows] == ["success"] * 4
+    geodesics = [float(row["geodesic_m"]) for row in rows]
+    assert abs(geodesics[3] - geodesics[1]) <= 2.0 and abs(geodesics[2] - geodesics[1]) <= 2.0
+
+
 def test_an_unknown_agent_is_refused_before_any_episode(tmp_path):
     assert main(["nav", "gen:2", "--agent", "nowhere:Agent", "--out", str(tmp_path)]) == 2
     assert not (tmp_path / "episodes.csv").exists()

@@ -1,0 +1,92 @@
+"""Where the wheels' and the camera's heading errors come from, on scripted drives.
+
+Run: ``python benchmarks/yaw_sources.py WORLD [WORLD ...] [--laps N]`` (default: 1 lap a world). A
+measurement, not a test: it asserts nothing and is not part of the pytest run. About a minute a world here.
+
+Per frame it compares three turns with the true one (the change of the true yaw since the previous frame):
+the wheels' (the encoders' turn rate times the frame time), and the camera's (NeuroSLAM's visual odometry,
+by the cue it took the yaw from: ``floor``, ``image`` or ``profile``). Per world it prints
+
+- the wheels' heading drift, rad per metre, on flat straight driving (``|true turn| < 0.003 rad`` a frame,
+  slope under 3 %) and their turn scale (the least-squares slope of their turn against the true one on
+  frames turning more than 0.01 rad);
+- the wheels' and the camera's accumulated heading error over the drive, degrees, the camera's by cue;
+- the horizontal ATE (m, after the best rigid 2-D fit) of dead reckoning with the wheels' speed and each
+  heading: the wheels' own, the true one (what the wheels' distance alone is worth), and the camera's where
+  it observed the yaw (the wheels' elsewhere).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+import sim
+from neuroslam import NeuroSLAM
+from neuroslam.lab.frames import DriveStream
+from neuroslam.vision.preprocessing import grey
+
+CUES = ("floor", "image", "profile")
+
+
+def _ate(estimate: np.ndarray, truth: np.ndarray) -> float:
+    """Horizontal RMSE after the best rotation and translation (closed form), m."""
+    e, g = estimate - estimate.mean(0), truth - truth.mean(0)
+    h = e.T @ g
+    angle = np.arctan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])
+    rotation = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    return float(np.sqrt(np.mean(np.sum((e @ rotation.T - g) ** 2, axis=1))))
+
+
+def _dead_reckoning(start: np.ndarray, yaw0: float, steps: np.ndarray, turns: np.ndarray) -> np.ndarray:
+    heading = yaw0 + np.cumsum(turns) - turns / 2
+    return start + np.c_[np.cumsum(steps * np.cos(heading)), np.cumsum(steps * np.sin(heading))]
+
+
+def measure(world: str, laps: int) -> None:
+    odometry = NeuroSLAM("sim").visual_odometry
+    rows, cues, previous = [], [], None
+    with sim.ScriptedDrive(world, laps=laps, seed=0) as drive:
+        for frame in DriveStream(drive):
+            dt = 0.0 if previous is None else frame.time - previous
+            previous = frame.time
+            camera = odometry.step(grey(frame.image), dt)
+            rows.append((dt, *frame.truth.pose, frame.wheels.forward_speed, frame.wheels.yaw_rate, camera.yaw_rate))
+            cues.append(camera.observed.yaw if camera.observed is not None else "none")
+    data = np.array(rows)
+    dt, position, height, yaw = data[:, 0], data[:, 1:3], data[:, 3], data[:, 4]
+    steps, wheel_turn, camera_turn = data[:, 5] * dt, data[:, 6] * dt, data[:, 7] * dt
+    cues = np.array(cues)
+    true_turn = np.r_[0.0, np.angle(np.exp(1j * np.diff(yaw)))]
+    moved = np.r_[0.0, np.linalg.norm(np.diff(position, axis=0), axis=1)]
+    slope = np.abs(np.r_[0.0, np.diff(height)]) / np.maximum(moved, 1e-6)
+    straight = (np.abs(true_turn) < 0.003) & (slope < 0.03) & (moved > 0.02)
+    drift = float((wheel_turn - true_turn)[straight].sum() / moved[straight].sum())
+    turning = np.abs(true_turn) > 0.01
+    scale = float(wheel_turn[turning] @ true_turn[turning] / (true_turn[turning] @ true_turn[turning]))
+    seen = np.isin(cues, CUES)
+    heading = {"wheels": wheel_turn, "true": true_turn, "camera": np.where(seen, camera_turn, wheel_turn)}
+    ate = {name: _ate(_dead_reckoning(position[0], yaw[0], steps, turns), position)
+           for name, turns in heading.items()}
+    by_cue = ", ".join(f"{cue} {np.degrees((camera_turn - true_turn)[cues == cue].sum()):+.1f} "
+                       f"({np.mean(cues == cue):.0%})" for cue in CUES if np.any(cues == cue))
+    print(f"{world}: {moved.sum():.0f} m, {len(data)} frames")
+    print(f"  wheels: drift {drift * 1e3:+.2f} mrad/m on flat straight driving, turn scale {scale:.4f}, "
+          f"heading error {np.degrees((wheel_turn - true_turn).sum()):+.1f} deg over the drive")
+    print(f"  camera heading error by cue, deg (share of frames): {by_cue}")
+    print(f"  dead-reckoning ATE with the wheels' speed: wheels' heading {ate['wheels']:.2f} m, true heading "
+          f"{ate['true']:.2f} m, camera's heading {ate['camera']:.2f} m")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("worlds", nargs="+", metavar="WORLD")
+    parser.add_argument("--laps", type=int, default=1)
+    args = parser.parse_args()
+    for world in args.worlds:
+        measure(world, args.laps)
+
+
+if __name__ == "__main__":
+    main()

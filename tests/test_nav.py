@@ -87,6 +87,34 @@ def test_a_vector_env_runs_the_same_episodes(tmp_path):
         assert float(a["path_length_m"]) == pytest.approx(float(b["path_length_m"]), abs=1e-9)
 
 
+def _drive_kinematically(agent, pose: np.ndarray, steps: int, dt: float = 0.1) -> np.ndarray:
+    """Move a pose by the agent's commands (unicycle, no physics); the pose's height never changes."""
+    pose = pose.astype(float).copy()
+    for _ in range(steps):
+        speed, yaw_rate = agent.act({"bumper": np.array([0])}, pose)
+        pose[3] += yaw_rate * dt
+        pose[:2] += speed * dt * np.array([np.cos(pose[3]), np.sin(pose[3])])
+    return pose
+
+
+@pytest.mark.parametrize("height", [0.0, 1.2])
+def test_the_planner_keeps_its_level_whatever_height_its_pose_claims(height):
+    """A pose between storeys (1.2 m above the ground floor: NeuroSLAM's height after a missed ramp top)
+    still reaches a goal on the ground floor of the car park, and so does the next goal planned from
+    there: the planner steers in the plane on its plan's level (before, the 1.2 m pose made a
+    near-vertical first step whose lookahead point lay under the robot, and it turned on the spot for
+    good)."""
+    world = sim.load_world("carpark")
+    agent = PlannerAgent(world, DrivableGraph.of(world), 0)
+    start, goal = np.array([-14.0, -12.5, height, 0.0]), np.array([-6.0, -12.5, 0.0])
+    agent.reset(start, goal)
+    final = _drive_kinematically(agent, start, 200)
+    assert np.linalg.norm(final[:2] - goal[:2]) < 1.0
+    agent.reset(final, start[:3] - [0.0, 0.0, height])  # back to the start, planned from the pose as it is
+    final = _drive_kinematically(agent, final, 300)
+    assert np.linalg.norm(final[:2] - start[:2]) < 1.0
+
+
 def test_the_planner_backs_off_when_its_bumper_closes_and_then_plans_again():
     world = sim.load_world("carpark")
     agent = PlannerAgent(world, DrivableGraph.of(world), 0)

@@ -87,7 +87,14 @@ class PlannerAgent:
     heading it turns on the spot first (an arc from a standstill would swing the chassis into whatever it
     stands beside). When its bumper closes it backs off ``back_off_steps`` steps at 0.3 m/s and plans
     again from where its pose then says it is. A goal no drivable path reaches is not driven toward: it
-    stands."""
+    stands.
+
+    It steers in the plane and takes its level from its own plan, not from the pose's height: the first
+    plan starts on the level nearest the pose's height, every later one on the level its last plan had
+    brought it to (where its progress along that plan lies). A pose source that measures no height (the
+    wheels) or one whose height is off by a storey then still plans and follows paths on the right level;
+    and a height a metre off, between two levels, does not put a near-vertical first step into the path,
+    whose lookahead point would lie under the robot (it turned on the spot for good)."""
 
     def __init__(self, world, graph, seed: int, *, speed: float = 1.0, turn_in_place: float = 0.5,
                  back_off_steps: int = 5):
@@ -98,20 +105,33 @@ class PlannerAgent:
         self.driver = None
         self.goal: np.ndarray | None = None
         self._backing = 0
+        self._height: float | None = None  # m: the level of the last plan's start, while it has no driver
 
     def reset(self, start: np.ndarray, goal: np.ndarray) -> None:
         self.goal = np.asarray(goal, dtype=float)
         self._backing = 0
         self._plan(start)
 
+    def _level_position(self, pose: np.ndarray) -> np.ndarray:
+        """The pose's x, y (m) at the height of the level the planner believes it is on: its plan's height
+        where its progress lies, or the pose's own height before any plan."""
+        height = float(pose[2])
+        if self.driver is not None:
+            height = float(self.driver.route.point_at(self.driver.progress)[2])
+        elif self._height is not None:
+            height = self._height
+        return np.array([pose[0], pose[1], height], dtype=float)
+
     def _plan(self, start: np.ndarray) -> None:
         import sim
 
-        path, length = self.graph.shortest_path(start[:3], self.goal)
+        position = self._level_position(start)
+        path, length = self.graph.shortest_path(position, self.goal)
+        self._height = position[2]
         if not math.isfinite(length):
             self.driver = None
             return
-        points = np.vstack([start[:3], path[1:], self.goal])
+        points = np.vstack([[position[0], position[1], path[0][2]], path[1:], self.goal])
         keep = np.concatenate([[True], np.linalg.norm(np.diff(points[:, :2], axis=0), axis=1) > 1e-6])
         self.driver = sim.PurePursuit(sim.world.Route("plan", points[keep], False), speed=self.speed)
 
@@ -126,7 +146,7 @@ class PlannerAgent:
             if self._backing == 0:
                 self._plan(pose)
             return np.array([-0.3, 0.0], dtype=np.float32)
-        speed, yaw_rate = self.driver.command(np.asarray(pose[:3]), float(pose[3]))
+        speed, yaw_rate = self.driver.command(self._level_position(pose), float(pose[3]))
         target = self.driver.route.point_at(self.driver.progress + self.driver.lookahead)
         bearing = geometry.wrap(math.atan2(target[1] - pose[1], target[0] - pose[0]) - float(pose[3]))
         if abs(bearing) > self.turn_in_place:

@@ -26,7 +26,7 @@ import math
 
 import mujoco
 import numpy as np
-from scipy.sparse import coo_matrix
+from scipy.sparse import coo_matrix, diags
 from scipy.sparse.csgraph import connected_components, dijkstra
 from scipy.spatial import cKDTree
 
@@ -221,11 +221,30 @@ class DrivableGraph:
         """The shortest drivable distance from ``start`` to ``goal`` (positions), m (inf if unreachable)."""
         return self.distance_to(self.goal_field(goal), start)
 
-    def shortest_path(self, start: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, float]:
+    def shortest_path(self, start: np.ndarray, goal: np.ndarray, *,
+                      avoid: np.ndarray | None = None, avoid_radius: float = 0.5) -> tuple[np.ndarray, float]:
         """A path to drive from ``start`` to ``goal`` (positions): the cheapest with the clearance costs (near
-        the shortest, away from obstacles where it can): (K, 3) points and its length, m."""
+        the shortest, away from obstacles where it can): (K, 3) points and its length, m (an empty path and
+        inf where none exists).
+
+        ``avoid``: (M, 3) points (m) the path must keep ``avoid_radius`` metres from horizontally, on their
+        level (less than 0.5 m higher or lower): obstacles the graph does not hold, such as what a robot's
+        bumper found. The nodes nearest ``start`` and ``goal`` are never avoided."""
         first, last = self.nearest(start), self.nearest(goal)
-        costs, predecessors = dijkstra(self._costs, directed=False, indices=first, return_predecessors=True)
+        graph = self._costs
+        if avoid is not None and len(avoid):
+            avoid = np.asarray(avoid, dtype=float).reshape(-1, 3)
+            near = self._tree.query_ball_point(avoid, avoid_radius + 0.5)
+            blocked = {int(node) for point, nodes in zip(avoid, near, strict=True) for node in nodes
+                       if np.linalg.norm(self.points[node, :2] - point[:2]) <= avoid_radius
+                       and abs(self.points[node, 2] - point[2]) < 0.5} - {first, last}
+            if blocked:
+                keep = np.ones(len(self.points))
+                keep[list(blocked)] = 0.0
+                mask = diags(keep)
+                graph = (mask @ graph @ mask).tocsr()
+                graph.eliminate_zeros()
+        costs, predecessors = dijkstra(graph, directed=False, indices=first, return_predecessors=True)
         if not np.isfinite(costs[last]):
             return np.zeros((0, 3)), math.inf
         path = [last]

@@ -115,6 +115,27 @@ def test_the_planner_keeps_its_level_whatever_height_its_pose_claims(height):
     assert np.linalg.norm(final[:2] - start[:2]) < 1.0
 
 
+def test_the_planner_plans_around_what_its_bumper_found():
+    """A bump 4 m along a straight path on the car park's ground floor: the next plan keeps its nodes 0.5 m
+    from the obstacle remembered 0.35 m ahead of the pose, and still ends at the goal; with no memory it
+    goes straight through again."""
+    world = sim.load_world("carpark")
+    graph = DrivableGraph.of(world)
+    start, goal = np.array([-14.0, -12.5, 0.0, 0.0]), np.array([-6.0, -12.5, 0.0])
+    at_bump = np.array([-10.0, -12.5, 0.0, 0.0])
+    obstacle = at_bump[:2] + [0.35, 0.0]
+    gaps = {}
+    for memory in (600, 0):
+        agent = PlannerAgent(world, graph, 0, bump_memory=memory)
+        agent.reset(start, goal)
+        for k in range(agent.back_off_steps):
+            agent.act({"bumper": np.array([int(k == 0)])}, at_bump)
+        waypoints = agent.driver.route.waypoints
+        assert np.allclose(waypoints[-1], goal)
+        gaps[memory] = np.linalg.norm(waypoints[1:-1, :2] - obstacle, axis=1).min()
+    assert gaps[600] >= 0.5 and gaps[0] < 0.5
+
+
 def test_the_planner_backs_off_when_its_bumper_closes_and_then_plans_again():
     world = sim.load_world("carpark")
     agent = PlannerAgent(world, DrivableGraph.of(world), 0)

@@ -89,6 +89,10 @@ class PlannerAgent:
     again from where its pose then says it is. A goal no drivable path reaches is not driven toward: it
     stands.
 
+    Where its bumper closed it remembers an obstacle, 0.35 m ahead of where its pose then said it was
+    (the chassis' front), for ``bump_memory`` steps, and plans around what it remembers (0.5 m clear of
+    each): a robot whose pose is off no longer plans into the same wall after every back-off.
+
     It steers in the plane and takes its level from its own plan, not from the pose's height: the first
     plan starts on the level nearest the pose's height, every later one on the level its last plan had
     brought it to (where its progress along that plan lies). A pose source that measures no height (the
@@ -97,11 +101,14 @@ class PlannerAgent:
     whose lookahead point would lie under the robot (it turned on the spot for good)."""
 
     def __init__(self, world, graph, seed: int, *, speed: float = 1.0, turn_in_place: float = 0.5,
-                 back_off_steps: int = 5):
+                 back_off_steps: int = 5, bump_memory: int = 600):
         self.graph = graph
         self.speed = speed
         self.turn_in_place = turn_in_place
         self.back_off_steps = back_off_steps
+        self.bump_memory = bump_memory
+        self.bumps: list[tuple[int, np.ndarray]] = []  # (step, x, y, z m): obstacles the bumper found
+        self._step = 0
         self.driver = None
         self.goal: np.ndarray | None = None
         self._backing = 0
@@ -126,7 +133,12 @@ class PlannerAgent:
         import sim
 
         position = self._level_position(start)
-        path, length = self.graph.shortest_path(position, self.goal)
+        self.bumps = [(step, point) for step, point in self.bumps if self._step - step < self.bump_memory]
+        avoid = np.array([point for _, point in self.bumps]).reshape(-1, 3)
+        path, length = self.graph.shortest_path(position, self.goal, avoid=avoid)
+        if not math.isfinite(length) and len(avoid):  # walled in by what it remembers: forget it
+            self.bumps = []
+            path, length = self.graph.shortest_path(position, self.goal)
         self._height = position[2]
         if not math.isfinite(length):
             self.driver = None
@@ -136,11 +148,15 @@ class PlannerAgent:
         self.driver = sim.PurePursuit(sim.world.Route("plan", points[keep], False), speed=self.speed)
 
     def act(self, observation: dict, pose: np.ndarray) -> np.ndarray:
+        self._step += 1
         if self.driver is None:
             return np.zeros(2, dtype=np.float32)
         bumped = bool(np.asarray(observation.get("bumper", 0)).any())
         if bumped and self._backing == 0:
             self._backing = self.back_off_steps
+            ahead = self._level_position(pose)
+            ahead[:2] += 0.35 * np.array([math.cos(pose[3]), math.sin(pose[3])])
+            self.bumps.append((self._step, ahead))
         if self._backing > 0:
             self._backing -= 1
             if self._backing == 0:

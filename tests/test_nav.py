@@ -136,6 +136,20 @@ def test_the_planner_plans_around_what_its_bumper_found():
     assert gaps[600] >= 0.5 and gaps[0] < 0.5
 
 
+def test_a_bumper_still_closed_after_backing_off_sends_the_planner_forward():
+    """Backing into a wall behind keeps the bumper closed: after the back-off the planner drives forward as
+    far, remembers the obstacle behind it, and then plans again."""
+    world = sim.load_world("carpark")
+    agent = PlannerAgent(world, DrivableGraph.of(world), 0)
+    pose = np.array([-10.0, -12.5, 0.0, 0.0])
+    agent.reset(pose, np.array([-6.0, -12.5, 0.0]))
+    actions = [agent.act({"bumper": np.array([1])}, pose)[0] for _ in range(agent.back_off_steps)]
+    actions += [agent.act({"bumper": np.array([0])}, pose)[0] for _ in range(agent.back_off_steps)]
+    assert actions == pytest.approx([-0.3] * 5 + [0.3] * 5)
+    (_, obstacle), = agent.bumps
+    assert np.allclose(obstacle, [-10.4, -12.5, 0.0])
+
+
 def test_the_planner_backs_off_when_its_bumper_closes_and_then_plans_again():
     world = sim.load_world("carpark")
     agent = PlannerAgent(world, DrivableGraph.of(world), 0)

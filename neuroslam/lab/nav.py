@@ -86,12 +86,15 @@ class PlannerAgent:
     controller, steering by its pose; where the path's next point lies more than ``turn_in_place`` off its
     heading it turns on the spot first (an arc from a standstill would swing the chassis into whatever it
     stands beside). When its bumper closes it backs off ``back_off_steps`` steps at 0.3 m/s and plans
-    again from where its pose then says it is. A goal no drivable path reaches is not driven toward: it
-    stands.
+    again from where its pose then says it is; if the bumper is still closed when it has backed off, what
+    it touches is behind it (the chassis reaches 0.35 m behind the axle, and swings out when it turns on
+    the spot), so it drives forward as far instead. A goal no drivable path reaches is not driven toward:
+    it stands.
 
     Where its bumper closed it remembers an obstacle, 0.35 m ahead of where its pose then said it was
-    (the chassis' front), for ``bump_memory`` steps, and plans around what it remembers (0.5 m clear of
-    each): a robot whose pose is off no longer plans into the same wall after every back-off.
+    (the chassis' front), or 0.4 m behind when backing did not free it, for ``bump_memory`` steps, and
+    plans around what it remembers (0.5 m clear of each): a robot whose pose is off no longer plans into
+    the same wall after every back-off.
 
     It steers in the plane and takes its level from its own plan, not from the pose's height: the first
     plan starts on the level nearest the pose's height, every later one on the level its last plan had
@@ -111,7 +114,9 @@ class PlannerAgent:
         self._step = 0
         self.driver = None
         self.goal: np.ndarray | None = None
-        self._backing = 0
+        self._backing = 0  # steps of the escape from a bump still to drive
+        self._escape_direction = -1.0  # -1: backing off, +1: forward (backing did not free the bumper)
+        self._obstacle = np.zeros(3)  # where the bump's obstacle is believed to be, m
         self._height: float | None = None  # m: the level of the last plan's start, while it has no driver
 
     def reset(self, start: np.ndarray, goal: np.ndarray) -> None:
@@ -152,16 +157,21 @@ class PlannerAgent:
         if self.driver is None:
             return np.zeros(2, dtype=np.float32)
         bumped = bool(np.asarray(observation.get("bumper", 0)).any())
+        heading = np.array([math.cos(pose[3]), math.sin(pose[3]), 0.0])
         if bumped and self._backing == 0:
-            self._backing = self.back_off_steps
-            ahead = self._level_position(pose)
-            ahead[:2] += 0.35 * np.array([math.cos(pose[3]), math.sin(pose[3])])
-            self.bumps.append((self._step, ahead))
+            self._backing, self._escape_direction = self.back_off_steps, -1.0
+            self._obstacle = self._level_position(pose) + 0.35 * heading
         if self._backing > 0:
             self._backing -= 1
+            command = np.array([0.3 * self._escape_direction, 0.0], dtype=np.float32)
             if self._backing == 0:
-                self._plan(pose)
-            return np.array([-0.3, 0.0], dtype=np.float32)
+                if bumped and self._escape_direction < 0:  # backing kept it touching: the obstacle is behind
+                    self._backing, self._escape_direction = self.back_off_steps, 1.0
+                    self._obstacle = self._level_position(pose) - 0.4 * heading
+                else:
+                    self.bumps.append((self._step, self._obstacle))
+                    self._plan(pose)
+            return command
         speed, yaw_rate = self.driver.command(self._level_position(pose), float(pose[3]))
         target = self.driver.route.point_at(self.driver.progress + self.driver.lookahead)
         bearing = geometry.wrap(math.atan2(target[1] - pose[1], target[0] - pose[0]) - float(pose[3]))

@@ -4,8 +4,9 @@ What you learn: in the long-horizon setting (``NeuroSLAM/SequentialPointNav-v0``
 wherever the last one ended, nothing reset) the wheel odometry's error grows with the distance driven, and
 NeuroSLAM's recognitions of places it has seen bound it. The planner steers by
 :class:`neuroslam.localisation.Localiser` (the wheels, corrected only where NeuroSLAM confirms a recognised
-place); on the same frames the script also integrates the wheel encoders alone, and compares both with the
-simulator's truth at every step. The script prints each goal's outcome and both errors, and writes
+place); on the same frames the script also integrates the wheel encoders alone (as ``neuroslam nav --pose
+odometry`` does: not while the bumper is closed), and compares both with the simulator's truth at every
+step. The script prints each goal's outcome and both errors, and writes
 ``runs/examples/long_patrol.png``: both errors against time, with the localiser's own 1σ uncertainty.
 
 Run: ``python examples/long_patrol.py`` (20 goals on the car park, about 8,000 steps, 2–3 minutes).
@@ -23,7 +24,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import sim  # noqa: F401 (registers the NeuroSLAM/... environments)
-from neuroslam.lab.nav import EpisodeRunner, wheel_pose
+from neuroslam.lab.nav import EpisodeRunner, WheelPose
 
 limit = int(os.environ.get("NEUROSLAM_EXAMPLE_FRAMES", "0")) or 100_000
 world = "carpark"
@@ -32,13 +33,13 @@ observation, info = env.reset(seed=0)
 graph = env.unwrapped.graph
 runner = EpisodeRunner(world, 0, "planner", "slam", graph=graph, world=env.unwrapped.world)
 runner.begin(observation, info)
-start, wheel_origin = np.array(info["pose"]), np.array(info["odometry_pose"])
+wheel_pose = WheelPose(info["pose"], info["odometry_pose"])  # the wheel encoders alone
 times, slam_errors, wheel_errors, uncertainties = [], [], [], []
 for _ in range(limit):
     observation, _, terminated, truncated, info = env.step(runner.act(observation))
     runner.observe(observation, info)
     truth = np.array(info["pose"])
-    wheels = wheel_pose(start, wheel_origin, info["odometry_pose"])  # the wheel encoders alone
+    wheels = wheel_pose.step(info["odometry_pose"], bool(observation["bumper"][0]))
     times.append(info["time"])
     slam_errors.append(float(np.linalg.norm(runner.pose[:3] - truth[:3])))
     wheel_errors.append(float(np.linalg.norm(wheels[:3] - truth[:3])))

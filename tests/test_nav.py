@@ -3,6 +3,7 @@ pose source runs and writes episodes.csv and summary.json; a goal sensor that re
 
 import csv
 import json
+import math
 
 import gymnasium as gym
 import numpy as np
@@ -10,7 +11,7 @@ import pytest
 
 import sim
 from neuroslam.lab.cli import main
-from neuroslam.lab.nav import PlannerAgent
+from neuroslam.lab.nav import PlannerAgent, WheelPose
 from sim.navigation import DrivableGraph
 
 
@@ -134,6 +135,18 @@ def test_the_planner_plans_around_what_its_bumper_found():
         assert np.allclose(waypoints[-1], goal)
         gaps[memory] = np.linalg.norm(waypoints[1:-1, :2] - obstacle, axis=1).min()
     assert gaps[600] >= 0.5 and gaps[0] < 0.5
+
+
+def test_the_wheel_pose_leaves_out_the_steps_with_the_bumper_closed():
+    """The encoders' travel in their own frame is applied to the start pose in the world; a step with the
+    bumper closed (wheels spinning against a wall, here a metre and 0.3 rad) is not counted, and the next
+    step's travel is taken from where the encoders then were."""
+    wheels = WheelPose(np.array([1.0, 2.0, 0.5, math.pi / 2]), np.array([10.0, 0.0, 0.0]))
+    np.testing.assert_allclose(wheels.step(np.array([11.0, 0.0, 0.0])), [1.0, 3.0, 0.5, math.pi / 2], atol=1e-12)
+    np.testing.assert_allclose(wheels.step(np.array([12.0, 0.0, 0.3]), True), [1.0, 3.0, 0.5, math.pi / 2],
+                               atol=1e-12)
+    after = wheels.step(np.array([12.0 + math.cos(0.3), math.sin(0.3), 0.3]))  # a metre straight ahead
+    np.testing.assert_allclose(after, [1.0, 4.0, 0.5, math.pi / 2], atol=1e-12)
 
 
 def test_a_bumper_still_closed_after_backing_off_sends_the_planner_forward():

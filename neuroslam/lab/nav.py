@@ -38,6 +38,7 @@ others) and the distance driven since the episode began (m).
 from __future__ import annotations
 
 import csv
+import dataclasses
 import importlib
 import json
 import math
@@ -52,19 +53,44 @@ from ..errors import InvalidParameterError
 from ..localisation import LocalisationConfig, Localiser
 from .frames import RolloutStream, SelfMotionSource
 
-__all__ = ["POSE_SOURCES", "GoalResult", "PlannerAgent", "RandomAgent", "load_agent", "run_episode", "summarise",
-           "wheel_pose"]
+__all__ = ["POSE_SOURCES", "GoalResult", "PlannerAgent", "RandomAgent", "WheelPose", "load_agent", "run_episode",
+           "summarise"]
 
 POSE_SOURCES = ("groundtruth", "odometry", "slam", "slam-camera")
 
 
-def wheel_pose(start: np.ndarray, origin: np.ndarray, odometry_pose: np.ndarray) -> np.ndarray:
-    """The wheel encoders' pose in the world: their (x, y, yaw) travel since ``origin`` (their reading at the
-    start, m and rad) applied to the ``start`` pose (x, y, z, yaw); the wheels measure no height, so the
-    start's is kept."""
-    origin, (x, y, yaw) = np.asarray(origin, dtype=float), np.asarray(odometry_pose, dtype=float)
-    travelled = geometry.relative(np.array([origin[0], origin[1], 0.0, origin[2]]), np.array([x, y, 0.0, yaw]))
-    return geometry.compose(np.asarray(start, dtype=float), travelled)
+def _planar(reading: np.ndarray) -> np.ndarray:
+    x, y, yaw = np.asarray(reading, dtype=float)
+    return np.array([x, y, 0.0, yaw])
+
+
+class WheelPose:
+    """The wheel encoders' pose in the world, step by step: their travel since the start applied to the
+    ``start`` pose (x, y, z m, yaw rad; the wheels measure no height, so the start's is kept), leaving out
+    the steps on which the bumper was closed. Then the chassis touches something and the wheels slip or
+    spin: a robot pushing against a wall, or turning with its tail against one, reads metres or radians
+    it never moved.
+
+    Args:
+        start: the start pose in the world. reading: the encoders' (x, y, yaw) at the start, m and rad.
+    """
+
+    def __init__(self, start: np.ndarray, reading: np.ndarray):
+        self.start = np.asarray(start, dtype=float)
+        self._last = _planar(reading)
+        self._travelled = np.zeros(4)  # since the start, in the start's frame
+
+    def step(self, reading: np.ndarray, bumped: bool = False) -> np.ndarray:
+        """The pose after one more step: the encoders' (x, y, yaw) now, and whether the bumper is closed."""
+        reading = _planar(reading)
+        if not bumped:
+            self._travelled = geometry.compose(self._travelled, geometry.relative(self._last, reading))
+        self._last = reading
+        return geometry.compose(self.start, self._travelled)
+
+
+def _bumped(observation: dict) -> bool:
+    return bool(np.asarray(observation.get("bumper", 0)).any())
 
 
 class RandomAgent:
@@ -156,7 +182,7 @@ class PlannerAgent:
         self._step += 1
         if self.driver is None:
             return np.zeros(2, dtype=np.float32)
-        bumped = bool(np.asarray(observation.get("bumper", 0)).any())
+        bumped = _bumped(observation)
         heading = np.array([math.cos(pose[3]), math.sin(pose[3]), 0.0])
         if bumped and self._backing == 0:
             self._backing, self._escape_direction = self.back_off_steps, -1.0
@@ -247,7 +273,7 @@ class EpisodeRunner:
 
         self.start = np.array(info["pose"], dtype=float)
         self.pose = self.start
-        self.odometry_origin = np.array(info["odometry_pose"], dtype=float)
+        self.wheels = WheelPose(self.start, info["odometry_pose"])
         self.localiser = None
         if self.pose_source.startswith("slam"):
             slam = NeuroSLAM.load(self.load_map) if self.load_map is not None else NeuroSLAM("sim")
@@ -261,6 +287,9 @@ class EpisodeRunner:
 
     def _localise(self, observation: dict, info: dict, index: int) -> None:
         frame = RolloutStream.frame_of(observation, info, index)
+        if _bumped(observation) and frame.wheels is not None:  # the wheels slip: not the robot's motion
+            frame = dataclasses.replace(frame, wheels=dataclasses.replace(frame.wheels, forward_speed=0.0,
+                                                                          yaw_rate=0.0))
         where = self.localiser.step(frame.image, frame.time, odometry=self.self_motion(frame))
         self.pose, self.uncertainty = where.pose, where.position_error
 
@@ -272,7 +301,7 @@ class EpisodeRunner:
         if self.pose_source == "groundtruth":
             self.pose = np.array(info["pose"], dtype=float)
         elif self.pose_source == "odometry":
-            self.pose = wheel_pose(self.start, self.odometry_origin, info["odometry_pose"])
+            self.pose = self.wheels.step(info["odometry_pose"], _bumped(observation))
         else:
             self._localise(observation, info, self.steps)
         self._last_finished = bool(info["goal_finished"])

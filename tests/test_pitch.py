@@ -11,6 +11,7 @@ from neuroslam.config import VisualOdometryConfig
 from neuroslam.errors import InvalidInputError, InvalidParameterError
 from neuroslam.vision import VisualOdometry
 from neuroslam.vision.ground_motion import blurred_with_gradients
+from neuroslam.vision.kernels import rotation_cost, rotation_normal
 from neuroslam.vision.pitch import LevelTransitions, RotationAlignment
 
 WIDTH, HEIGHT = 160, 120
@@ -66,6 +67,30 @@ def test_alignment_keeps_the_better_of_two_starts():
                                 floor_yaw=0.2)
     assert yaw == pytest.approx(0.0, abs=1e-3)
     assert pitch == pytest.approx(-0.06, abs=1e-3)
+
+
+def test_a_ray_turned_past_the_image_plane_adds_nothing_to_the_sums():
+    """At a yaw of 90 degrees the centre column's rays lie in the image plane (eq. R1 would divide by zero):
+    the normal equations stay finite, and no pixel is in view."""
+    stack = blurred_with_gradients(scene(2), 1.0)
+    alignment = RotationAlignment(horizontal_fov=FOV)
+    focal, indices, x, y, _ = alignment._grid(stack.shape[1:])
+    target, labels = stack[0].ravel()[indices], np.zeros(len(x), dtype=np.intp)
+    for yaw in (math.pi / 2, -math.pi / 2, math.pi):
+        normal, gradient = rotation_normal(stack, target, x, y, labels, np.array([yaw, 0.0, 0.0]), focal, 0.05)
+        assert np.all(np.isfinite(normal)) and np.all(np.isfinite(gradient))
+        assert rotation_cost(stack, target, x, y, labels, np.array([yaw, 0.0, 0.0]), focal, 0.05)[1] == 0.0
+
+
+def test_a_diverged_solve_reads_no_rotation_instead_of_raising():
+    """Gauss-Newton that runs off (an expansion so large that its scale overflows: the sums turn to NaN,
+    as a robot against a blank wall once walked its yaw off towards 90 degrees) used to raise numpy's
+    LinAlgError out of the visual odometry. Now the solve reports no solution (infinite cost, no
+    information), and the frame's step falls back to the floor's yaw with no information."""
+    first, second = blurred_with_gradients(scene(3), 1.0), blurred_with_gradients(scene(4), 1.0)
+    alignment = RotationAlignment(horizontal_fov=FOV)
+    _, cost, information = alignment._solve(first, second, np.array([0.1, 0.0, -1e38]))
+    assert cost == math.inf and np.all(information == 0)
 
 
 def transitions(**overrides):

@@ -229,11 +229,15 @@ def _rotation_sums_for(single: bool):
             xk, yk = x[k], y[k]
             py, pz = cp * yk - sp * f, sp * yk + cp * f  # R_pitch r (x unchanged)
             rx, rz = cy * xk - sy * pz, sy * xk + cy * pz  # R_yaw (x, py, pz)
-            inverse = one / rz
+            # a ray turned more than about 84 degrees off the axis (rz below f / 10) lands more than ten focal
+            # lengths off the centre, or behind the camera: never in view; its projection would divide by
+            # zero at 90 degrees and poison the sums (and the sample's index) with inf and NaN
+            ahead = rz > f32(0.1) * f
+            inverse = one / rz if ahead else zero
             scale = (one - expansion) * f
             u = scale * rx * inverse + centre_u  # eq. R1
             v = scale * py * inverse + centre_v
-            visible = (u >= zero) & (u <= limit_u) & (v >= zero) & (v <= limit_v)
+            visible = ahead & (u >= zero) & (u <= limit_u) & (v >= zero) & (v <= limit_v)
             intensity, gradient_u, gradient_v = _sample32(flat_image, flat_u, flat_v, columns, u, v, limit_u, limit_v)
             residual = intensity - target[k]
             size = abs(residual)
@@ -349,7 +353,7 @@ def rotation_solve(previous, target, x, y, labels, start, focal, robust_scale, i
     """Gauss–Newton on eq. R2 from ``start`` (yaw, pitch, e_0 … e_{K−1}), at most ``iterations`` times, until the
     yaw and pitch updates are below ``tolerance`` rad; the normal equations damped by ``damping`` × identity.
     Returns (parameters, the marginal information on each: 1 / diag(normal⁻¹) at the last linearisation,
-    iterations done)."""
+    iterations done); parameters all NaN where the iteration diverged to non-finite normal equations."""
     parameters = start.copy()
     size = parameters.shape[0]
     information = np.zeros(size)
@@ -357,6 +361,10 @@ def rotation_solve(previous, target, x, y, labels, start, focal, robust_scale, i
     for _ in range(iterations):
         done += 1
         normal, gradient = rotation_normal(previous, target, x, y, labels, parameters, focal, robust_scale)
+        if not (np.all(np.isfinite(normal)) and np.all(np.isfinite(gradient))):  # diverged (an expansion's
+            parameters[:] = np.nan  # exponent overflowed): no solution, which the caller turns into no reading
+            information[:] = 0.0
+            break
         for k in range(size):
             normal[k, k] += damping
         update = -np.linalg.solve(normal, gradient)

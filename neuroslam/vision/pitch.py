@@ -206,8 +206,11 @@ class RotationAlignment:
         labels = quadrants if len(start) == 6 else np.zeros(len(x), dtype=np.intp)
         parameters, information, done = rotation_solve(previous, target, x, y, labels, start, focal, self.robust_scale,
                                                     self.iterations, _DAMPING, _TOLERANCE)
+        self.passes += done
+        if not np.all(np.isfinite(parameters)):
+            return start, math.inf, np.zeros(len(start))
         cost, support = rotation_cost(previous, target, x, y, labels, parameters, focal, self.robust_scale)
-        self.passes += done + 1
+        self.passes += 1
         if support < _MIN_SUPPORT:
             return parameters, math.inf, information
         return parameters, cost, information

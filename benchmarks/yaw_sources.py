@@ -24,6 +24,7 @@ import numpy as np
 
 import sim
 from neuroslam import NeuroSLAM
+from neuroslam.evaluation.registration import fit_yaw_translation, transform_points
 from neuroslam.lab.frames import DriveStream
 from neuroslam.vision.preprocessing import grey
 
@@ -31,12 +32,12 @@ CUES = ("floor", "image", "profile")
 
 
 def _ate(estimate: np.ndarray, truth: np.ndarray) -> float:
-    """Horizontal RMSE after the best rotation and translation (closed form), m."""
-    e, g = estimate - estimate.mean(0), truth - truth.mean(0)
-    h = e.T @ g
-    angle = np.arctan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])
-    rotation = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
-    return float(np.sqrt(np.mean(np.sum((e @ rotation.T - g) ** 2, axis=1))))
+    """Horizontal RMSE (m) after the best rotation about z and translation (the closed-form fit the map
+    comparison uses)."""
+    flat = [np.column_stack([points, np.zeros(len(points))]) for points in (estimate, truth)]
+    yaw, translation = fit_yaw_translation(*flat)
+    moved = transform_points(flat[0], yaw, translation)
+    return float(np.sqrt(np.mean(np.sum((moved - flat[1])[:, :2] ** 2, axis=1))))
 
 
 def _dead_reckoning(start: np.ndarray, yaw0: float, steps: np.ndarray, turns: np.ndarray) -> np.ndarray:

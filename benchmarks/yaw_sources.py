@@ -12,8 +12,11 @@ by the cue it took the yaw from: ``floor``, ``image`` or ``profile``). Per world
   frames turning more than 0.01 rad);
 - the wheels' and the camera's accumulated heading error over the drive, degrees, the camera's by cue;
 - the horizontal ATE (m, after the best rigid 2-D fit) of dead reckoning with the wheels' speed and each
-  heading: the wheels' own, the true one (what the wheels' distance alone is worth), and the camera's where
-  it observed the yaw (the wheels' elsewhere).
+  heading: the wheels' own, the true one (what the wheels' distance alone is worth), the camera's where
+  it observed the yaw (the wheels' elsewhere), and the wheels' turned toward the floor's and the ceiling's
+  straight lines (eqs. M1–M3 of :mod:`neuroslam.vision.structure` with the ``sim`` preset's ``manhattan_*``
+  settings, applied to the wheels' turn: the library applies them to the visual odometry's own yaw only,
+  and only where ``odometry.manhattan`` is on).
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from neuroslam import NeuroSLAM
 from neuroslam.evaluation.registration import fit_yaw_translation, transform_points
 from neuroslam.lab.frames import DriveStream
 from neuroslam.vision.preprocessing import grey
+from neuroslam.vision.structure import StructureHeading
 
 CUES = ("floor", "image", "profile")
 
@@ -46,14 +50,21 @@ def _dead_reckoning(start: np.ndarray, yaw0: float, steps: np.ndarray, turns: np
 
 
 def measure(world: str, laps: int) -> None:
-    odometry = NeuroSLAM("sim").visual_odometry
+    slam = NeuroSLAM("sim")
+    odometry, settings = slam.visual_odometry, slam.config.odometry
+    lines = StructureHeading(horizontal_fov=slam.config.horizontal_fov, strength=settings.manhattan_strength,
+                             spread=settings.manhattan_spread, window=settings.manhattan_window,
+                             first_row=settings.manhattan_first_row, rate=settings.manhattan_rate)
     rows, cues, previous = [], [], None
     with sim.ScriptedDrive(world, laps=laps, seed=0) as drive:
         for frame in DriveStream(drive):
             dt = 0.0 if previous is None else frame.time - previous
             previous = frame.time
             camera = odometry.step(grey(frame.image), dt)
-            rows.append((dt, *frame.truth.pose, frame.wheels.forward_speed, frame.wheels.yaw_rate, camera.yaw_rate))
+            wheel_turn = frame.wheels.yaw_rate * dt
+            lined = lines.correct(odometry.image_stack, wheel_turn, dt) if dt > 0 else 0.0  # eq. M3
+            rows.append((dt, *frame.truth.pose, frame.wheels.forward_speed, frame.wheels.yaw_rate, camera.yaw_rate,
+                         lined))
             cues.append(camera.observed.yaw if camera.observed is not None else "none")
     data = np.array(rows)
     dt, position, height, yaw = data[:, 0], data[:, 1:3], data[:, 3], data[:, 4]
@@ -67,7 +78,8 @@ def measure(world: str, laps: int) -> None:
     turning = np.abs(true_turn) > 0.01
     scale = float(wheel_turn[turning] @ true_turn[turning] / (true_turn[turning] @ true_turn[turning]))
     seen = np.isin(cues, CUES)
-    heading = {"wheels": wheel_turn, "true": true_turn, "camera": np.where(seen, camera_turn, wheel_turn)}
+    heading = {"wheels": wheel_turn, "true": true_turn, "camera": np.where(seen, camera_turn, wheel_turn),
+               "lines": data[:, 8]}
     ate = {name: _ate(_dead_reckoning(position[0], yaw[0], steps, turns), position)
            for name, turns in heading.items()}
     by_cue = ", ".join(f"{cue} {np.degrees((camera_turn - true_turn)[cues == cue].sum()):+.1f} "
@@ -77,7 +89,8 @@ def measure(world: str, laps: int) -> None:
           f"heading error {np.degrees((wheel_turn - true_turn).sum()):+.1f} deg over the drive")
     print(f"  camera heading error by cue, deg (share of frames): {by_cue}")
     print(f"  dead-reckoning ATE with the wheels' speed: wheels' heading {ate['wheels']:.2f} m, true heading "
-          f"{ate['true']:.2f} m, camera's heading {ate['camera']:.2f} m")
+          f"{ate['true']:.2f} m, camera's heading {ate['camera']:.2f} m, wheels' turned by the lines (eq. M3) "
+          f"{ate['lines']:.2f} m")
 
 
 def main() -> None:

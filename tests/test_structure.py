@@ -104,3 +104,21 @@ def test_the_odometry_follows_the_lines_only_when_asked():
     assert odometry.lines.reference is not None
     assert odometry.lines.heading == pytest.approx(total, abs=1e-12)
     assert abs(math.degrees(total)) < 1.0  # a textured floor straight ahead: no turn
+
+
+def test_the_odometry_shows_the_image_stack_eq_m1_reads():
+    """``VisualOdometry.image_stack``: None before the first frame, then the last image blurred with its
+    gradients, exactly what its own eq. M3 is given (so another heading, the wheels' say, can be held to the
+    same lines: benchmarks/yaw_sources.py)."""
+    from neuroslam.config import VisualOdometryConfig
+    from neuroslam.vision.odometry import VisualOdometry
+
+    odometry = VisualOdometry(VisualOdometryConfig(), horizontal_fov=FIELD_OF_VIEW)
+    assert odometry.image_stack is None
+    scene = Scene(floor=TILES, walls=None, ceiling=None)
+    image = scene.render(0.0, 0.0, math.radians(17.0))
+    odometry.step(image, 0.0)
+    np.testing.assert_array_equal(odometry.image_stack, blurred_with_gradients(image, 1.0))
+    lines = StructureHeading(horizontal_fov=FIELD_OF_VIEW)
+    phi, strength = lines.edge_orientation(odometry.image_stack, surface=1)
+    assert abs((math.degrees(phi) + 17.0 + 45.0) % 90.0 - 45.0) < 1.5 and strength > 0.7

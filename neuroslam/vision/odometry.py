@@ -210,6 +210,14 @@ class VisualOdometry(CueSelectionMixin):
         return result
 
     @property
+    def image_stack(self) -> np.ndarray | None:
+        """The last image as the direct alignments read it: (3, rows, columns) float32, the grey image
+        blurred and its horizontal and vertical gradients (per pixel), at the working width; None before the
+        first frame or without the ``transitions`` height model. A view, not a copy: what eqs. R1–R2 and
+        M1–M2 (:meth:`~neuroslam.vision.structure.StructureHeading.correct`) take."""
+        return self._finest
+
+    @property
     def _max_columns(self) -> int:
         """The largest shift of the column profile searched by NeuroSLAM eq. 28, samples."""
         return max(1, int(round(self.config.max_column_shift * self.config.profile_width)))

@@ -59,6 +59,37 @@ def test_a_patrol_re_drives_its_round(tmp_path):
     assert abs(geodesics[3] - geodesics[1]) <= 2.0 and abs(geodesics[2] - geodesics[1]) <= 2.0
 
 
+def test_a_sequence_cut_short_by_a_tip_counts_its_goals_never_given_as_failures():
+    """A robot that tips on the second of four goals ends the episode there (the environment's rule); the
+    runner reports all four goals, the last two ``not_given`` (no error, path or geodesic), so the
+    sequence's success is 1 of 4, not 1 of 2, and the summary's errors leave them out."""
+    from neuroslam.lab.nav import EpisodeRunner, summarise
+
+    runner = EpisodeRunner("gen:2", 0, "random", "groundtruth", graph=None, world=None, goals=4)
+    start = np.array([0.0, 0.0, 0.0, 0.0])
+    runner.begin({}, {"pose": start, "odometry_pose": start[[0, 1, 3]], "goal": np.array([5.0, 0.0, 0.0])})
+
+    def goal_end(index, outcome, x):
+        return {"pose": np.array([x, 0.0, 0.0, 0.0]), "odometry_pose": np.array([x, 0.0, 0.0]),
+                "goal_finished": True, "goal_outcome": outcome, "goal_index": index, "success": outcome == "success",
+                "spl": 1.0 if outcome == "success" else 0.0, "path_length": 5.0, "geodesic": 5.0, "goal_steps": 50,
+                "collisions": 0, "next_goal": np.array([10.0, 0.0, 0.0])}
+
+    runner.observe({}, goal_end(0, "success", 5.0))
+    last = goal_end(1, "tipped", 7.0)
+    del last["next_goal"]
+    runner.observe({}, last)
+    rows = runner.finish(last)
+    assert [(row.goal_index, row.outcome, row.success) for row in rows] == [
+        (0, "success", True), (1, "tipped", False), (2, "not_given", False), (3, "not_given", False)]
+    assert all(math.isnan(row.localisation_error_m) and row.distance_driven_m == 10.0 for row in rows[2:])
+    (setting,) = summarise(rows)["settings"]
+    assert setting["goals"] == 4 and setting["success_rate"] == 0.25
+    assert setting["median_localisation_error_m"] == 0.0
+    assert setting["localisation_error_by_goal"] == [0.0, 0.0, None, None]
+    assert setting["outcomes"] == {"success": 1, "tipped": 1, "not_given": 2}
+
+
 def test_an_unknown_agent_is_refused_before_any_episode(tmp_path):
     assert main(["nav", "gen:2", "--agent", "nowhere:Agent", "--out", str(tmp_path)]) == 2
     assert not (tmp_path / "episodes.csv").exists()

@@ -252,13 +252,14 @@ class EpisodeRunner:
     a row per goal."""
 
     def __init__(self, world_name: str, seed: int, agent_name: str, pose_source: str, *, graph, world,
-                 load_map: Path | None = None):
+                 load_map: Path | None = None, goals: int = 1):
         if pose_source not in POSE_SOURCES:
             raise InvalidParameterError("--pose", pose_source, f"must be one of {', '.join(POSE_SOURCES)}")
         self.world_name, self.seed, self.agent_name, self.pose_source = world_name, seed, agent_name, pose_source
         self.graph = graph
         self.agent = load_agent(agent_name)(world, graph, seed)
         self.load_map = load_map
+        self.goals = goals
         self.steps = 0
         self.results: list[GoalResult] = []
         self.uncertainty = 0.0 if pose_source == "groundtruth" else math.nan
@@ -326,9 +327,15 @@ class EpisodeRunner:
         self._collisions = collisions
 
     def finish(self, info: dict) -> list[GoalResult]:
-        """The rows of the episode's goals (a goal cut off by the time limit counts as ``timeout``)."""
+        """The rows of the episode's ``goals`` goals: a goal cut off by the time limit counts as ``timeout``,
+        and each goal never given because the episode ended first (the robot tipped) as ``not_given``, a
+        failure with no path, geodesic or error (NaN), so that a sequence's success is over all its goals."""
         if not self._last_finished:
             self._record(info, "timeout")
+        for index in range(len(self.results), self.goals):
+            self.results.append(GoalResult(
+                self.world_name, self.seed, self.agent_name, self.pose_source, index, "not_given", False, 0.0, 0.0,
+                math.nan, 0, 0, math.nan, math.nan, math.nan, 0, self._driven))
         return self.results
 
 
@@ -352,7 +359,7 @@ def run_episode(world_name: str, seed: int, agent_name: str, pose_source: str, *
     try:
         observation, info = env.reset(seed=seed)
         runner = EpisodeRunner(world_name, seed, agent_name, pose_source, graph=graph, world=env.unwrapped.world,
-                               load_map=load_map)
+                               load_map=load_map, goals=goals)
         runner.begin(observation, info)
         done = False
         while not done:
@@ -393,7 +400,7 @@ def run_episodes_vector(world_name: str, seeds: list[int], agent_name: str, pose
         observations, infos = envs.reset(seed=first)
         for index, seed in enumerate(first):
             runners[index] = EpisodeRunner(world_name, seed, agent_name, pose_source, graph=graph, world=world,
-                                           load_map=load_map)
+                                           load_map=load_map, goals=goals)
             runners[index].begin(_slot(observations, index), _slot(infos, index))
         while any(runner is not None for runner in runners):
             actions = np.zeros((count, 2), dtype=np.float32)
@@ -419,7 +426,7 @@ def run_episodes_vector(world_name: str, seeds: list[int], agent_name: str, pose
                 for index, seed in enumerate(reset_seeds):
                     if seed is not None:
                         runners[index] = EpisodeRunner(world_name, seed, agent_name, pose_source, graph=graph,
-                                                       world=world, load_map=load_map)
+                                                       world=world, load_map=load_map, goals=goals)
                         runners[index].begin(_slot(observations, index), _slot(infos, index))
     finally:
         envs.close()
@@ -438,6 +445,12 @@ def _interval(values: np.ndarray) -> list[float]:
     """The 95 % interval of the mean (normal approximation, 1.96 × standard error)."""
     half = 1.96 * values.std(ddof=1) / math.sqrt(len(values)) if len(values) > 1 else math.nan
     return [float(values.mean() - half), float(values.mean() + half)]
+
+
+def _median(values: np.ndarray) -> float | None:
+    """The median of the finite values (goals never given have no error), None where there are none."""
+    finite = values[np.isfinite(values)]
+    return float(np.median(finite)) if len(finite) else None
 
 
 def summarise(results: list[GoalResult]) -> dict[str, Any]:
@@ -461,14 +474,16 @@ def summarise(results: list[GoalResult]) -> dict[str, Any]:
                    "episodes": len({member.seed for member in members}),
                    "success_rate": float(success.mean()), "success_ci95": _interval(success),
                    "spl": float(spl.mean()), "spl_ci95": _interval(spl), "outcomes": outcomes,
-                   "median_localisation_error_m": float(np.median(errors))}
+                   "median_localisation_error_m": _median(errors)}
         indices = np.array([member.goal_index for member in members])
         if indices.max() > 0:
-            setting["localisation_error_by_goal"] = [float(np.median(errors[indices == k]))
+            setting["localisation_error_by_goal"] = [_median(errors[indices == k])
                                                      for k in range(int(indices.max()) + 1)]
             driven = np.array([member.distance_driven_m for member in members])
-            slope = np.polyfit(driven, errors, 1)[0] if np.ptp(driven) > 0 else math.nan
-            setting["localisation_error_trend"] = float(100 * slope)
+            finite = np.isfinite(errors)
+            slope = (np.polyfit(driven[finite], errors[finite], 1)[0]
+                     if finite.sum() > 1 and np.ptp(driven[finite]) > 0 else math.nan)
+            setting["localisation_error_trend"] = None if math.isnan(slope) else float(100 * slope)
         settings.append(setting)
     return {"settings": settings}
 

@@ -135,10 +135,10 @@ def nav_command(args: argparse.Namespace) -> int:
     write_episodes(out / "episodes.csv", results)
     summary = write_summary(out / "summary.json", results)
     for setting in summary["settings"]:
-        trend = setting.get("localisation_error_trend")
+        trend, error = setting.get("localisation_error_trend"), setting["median_localisation_error_m"]
         print(f"{setting['world']:<10} {setting['agent']:<8} {setting['pose']:<12} {setting['goals']:>4} goals: "
               f"success {setting['success_rate']:.2f}, SPL {setting['spl']:.2f}, localisation error "
-              f"{setting['median_localisation_error_m']:.2f} m"
+              + ("-" if error is None else f"{error:.2f} m")
               + ("" if trend is None else f" (trend {trend:+.2f} m per 100 m)"))
     print(f"output: {out}")
     return 0

@@ -88,6 +88,25 @@ def test_a_sequence_cut_short_by_a_tip_counts_its_goals_never_given_as_failures(
     assert setting["median_localisation_error_m"] == 0.0
     assert setting["localisation_error_by_goal"] == [0.0, 0.0, None, None]
     assert setting["outcomes"] == {"success": 1, "tipped": 1, "not_given": 2}
+    assert setting["median_wheel_error_m"] == 0.0 and setting["not_worse_than_wheels"] == 1.0
+
+
+def test_every_row_carries_the_wheels_error_on_the_same_frames(tmp_path):
+    """The wheels' pose runs beside every pose source: with the wheels as the pose source the two errors are
+    one; with ground truth the wheels' is what they would have read on the same drive (not zero after 2
+    goals), and the summary's paired figures compare them goal by goal."""
+    for pose in ("odometry", "groundtruth"):
+        out = tmp_path / pose
+        assert main(["nav", "gen:2", "--sequential", "2", "--episodes", "1", "--pose", pose, "--out", str(out)]) == 0
+        rows = list(csv.DictReader((out / "episodes.csv").open()))
+        (setting,) = json.loads((out / "summary.json").read_text())["settings"]
+        wheels = [float(row["wheel_error_m"]) for row in rows]
+        if pose == "odometry":
+            assert wheels == [float(row["localisation_error_m"]) for row in rows]
+            assert setting["plane_error_above_wheels_m"] == 0.0 and setting["not_worse_than_wheels"] == 1.0
+        else:
+            assert wheels[-1] > 0.0 and setting["median_wheel_error_m"] > 0.0
+            assert setting["plane_error_above_wheels_m"] < 0.0 and setting["not_worse_than_wheels"] == 1.0
 
 
 def test_an_unknown_agent_is_refused_before_any_episode(tmp_path):

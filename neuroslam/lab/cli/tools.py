@@ -139,7 +139,10 @@ def nav_command(args: argparse.Namespace) -> int:
         print(f"{setting['world']:<10} {setting['agent']:<8} {setting['pose']:<12} {setting['goals']:>4} goals: "
               f"success {setting['success_rate']:.2f}, SPL {setting['spl']:.2f}, localisation error "
               + ("-" if error is None else f"{error:.2f} m")
-              + ("" if trend is None else f" (trend {trend:+.2f} m per 100 m)"))
+              + ("" if trend is None else f" (trend {trend:+.2f} m per 100 m)")
+              + ("" if setting["pose"] in ("odometry", "groundtruth") or setting["not_worse_than_wheels"] is None
+                 else f"; not worse than the wheels on the same frames on {setting['not_worse_than_wheels']:.2f}"
+                      " of goals"))
     print(f"output: {out}")
     return 0
 

@@ -11,10 +11,15 @@ odometry it was given. :class:`Localiser` keeps one:
   with the distance (a bias); the position's and the height's linearly with the distance driven, plus the
   distance times the heading's (a heading error bends the path it integrates).
 - **Correction only on confirmed recognition.** A frame on which NeuroSLAM closes a loop (the confirmed
-  rule, :func:`~neuroslam.loop_closure.confirm_place`) or merges into a loaded map gives a measurement: the
-  experience map's pose, expressed in the task's frame. Its uncertainty is that of the place in the map
-  (the localiser's own uncertainty when it laid that experience, or ``map_error`` for a loaded map's) and
-  the recognition's (``recognition_error``). A measurement farther from the prediction than ``gate``
+  rule, :func:`~neuroslam.loop_closure.confirm_place`) or merges into a loaded map gives a measurement of
+  where the robot is: at a place this localiser laid, its own pose when it laid that experience (the
+  heading turned by as much as NeuroSLAM's heading differs from the experience's then), with the
+  uncertainty it had then; at a loaded map's place, the experience map's pose expressed in the task's
+  frame, with ``map_error``. Both with the recognition's own (``recognition_error``). Not the experience
+  map's pose of an own place: the map integrates the same self-motion but is bent by NeuroSLAM's own loop
+  closures, and where the robot laid places while lost (20–30 m off, stalled in one spot for goal after
+  goal), the map's poses of them were further off than the localiser's, yet carried the localiser's smaller
+  uncertainty: recognising them moved the pose 10 m the wrong way (gen:4, docs/navigation.md). A measurement farther from the prediction than ``gate``
   standard deviations of their difference is rejected (the plane and the height each through their own
   gate), unless ``persistence`` rejected ones in a row agree with one another: then the prediction is what
   is wrong, and the pose takes the measurement. An accepted one is fused with the inverse-variance weights
@@ -142,11 +147,14 @@ class Localisation:
 
 @dataclass
 class _Place:
-    """An uncertainty kept per experience: the localiser's own when it laid the experience."""
+    """What the localiser knew when it laid an experience: its uncertainty (1σ, m, m, rad), and its own pose
+    then (task frame) with NeuroSLAM's (map frame), or None for a loaded map's place."""
 
     position: float
     height: float
     heading: float
+    pose: np.ndarray | None = None
+    map_pose: np.ndarray | None = None
 
 
 class Localiser:
@@ -221,7 +229,7 @@ class Localiser:
             if self._alignment is not None:
                 corrected, rejected = self._correct(estimate)
         if estimate.new_experience:
-            self._places[estimate.experience_id] = _Place(*self.sigma)
+            self._places[estimate.experience_id] = _Place(*self.sigma, self.pose.copy(), estimate.pose.copy())
         self.last = Localisation(self.pose.copy(), float(self.sigma[0]), float(self.sigma[1]), float(self.sigma[2]),
                                  corrected, rejected, self.aligned, estimate)
         return self.last
@@ -260,10 +268,13 @@ class Localiser:
         """Fuse the recognised pose, the plane (x, y, heading) and the height each through its own gate
         (returns whether a part was corrected, whether a part was rejected)."""
         c = self.config
-        measured = compose(self._alignment, estimate.pose)
         place = self._places.get(estimate.experience_id)
-        if place is None:  # a loaded map's place
+        if place is None:  # a loaded map's place: where the map has it, in the task's frame
+            measured = compose(self._alignment, estimate.pose)
             place = _Place(c.map_error, c.map_error, c.map_error / 10)
+        else:  # a place this localiser laid: where it was then, the uncertainty it had then
+            measured = place.pose.copy()
+            measured[3] = wrap(float(place.pose[3] + estimate.pose[3] - place.map_pose[3]))
         noise = np.array([math.hypot(place.position, c.recognition_error, self._alignment_error),
                           math.hypot(place.height, c.recognition_error),
                           math.hypot(place.heading, c.recognition_heading_error)])

@@ -64,47 +64,57 @@ def test_without_recognitions_the_pose_is_the_self_motion_and_its_uncertainty_gr
     assert not where.corrected and where.aligned
 
 
+BACK = SelfMotion(-1.0, 0.0, 0.0)  # 1 m/s reversing
+
+
 def test_a_recognition_pulls_the_pose_by_the_inverse_variance_weight():
+    """Experience 1 is laid at the start with no uncertainty; 50 m east and 49 m back the prediction is 1 m
+    east of it (1σ 1.98 m). Recognising it measures the pose the localiser had when it laid it, whatever the
+    experience map now says (here 30 m off), and the pose moves by the inverse-variance gain."""
     config = LocalisationConfig(distance_drift=0.02, turn_drift=0.0, heading_drift=0.0, recognition_error=0.3)
     slam = ScriptedSLAM()
     localiser = Localiser(slam, np.zeros(4), config)
-    drive(localiser, 1)  # the first frame: experience 1, laid with no uncertainty
-    where = drive(localiser, 500, start_time=0.1)  # 50 m east: sigma 1.0 m
+    drive(localiser, 1)  # the first frame: experience 1, laid at the start with no uncertainty
+    drive(localiser, 500, start_time=0.1)  # 50 m east
+    where = drive(localiser, 490, start_time=50.1, motion=BACK)  # 49 m back: 1 m east of the start
     sigma = where.position_error
-    assert sigma == pytest.approx(1.0)
-    # a confirmed closure at experience 1 whose pose says the robot is 1 m north of its prediction
-    slam.next = {"pose": where.pose + np.array([0.0, 1.0, 0.0, 0.0]), "loop_closure": True, "experience": 1}
+    assert sigma == pytest.approx(1.98) and where.pose[0] == pytest.approx(1.0)
+    slam.next = {"pose": np.array([30.0, 0.0, 0.0, 0.0]), "loop_closure": True, "experience": 1}
     before = where.pose.copy()
-    where = localiser.step(IMAGE, 50.1, odometry=STOPPED)
+    where = localiser.step(IMAGE, 99.1, odometry=STOPPED)
     gain = sigma**2 / (sigma**2 + 0.3**2)
-    assert where.corrected and where.pose[1] - before[1] == pytest.approx(gain * 1.0)
+    assert where.corrected and where.pose[0] - before[0] == pytest.approx(gain * -1.0)
+    assert where.pose[1] == pytest.approx(0.0)
     fused = math.sqrt(sigma**2 * 0.09 / (sigma**2 + 0.09))
     assert where.position_error == pytest.approx(max(fused, 0.3 / math.sqrt(2)))
 
 
 def test_a_recognition_beyond_the_gate_is_rejected():
-    config = LocalisationConfig(distance_drift=0.02, turn_drift=0.0, heading_drift=0.0, recognition_error=0.3, gate=3.0)
+    """Back at 4 m east of experience 1 with a 1σ of 0.96 m: the gate is 3 * hypot(0.96, 0.3) = 3.0 m."""
+    config = LocalisationConfig(distance_drift=0.01, turn_drift=0.0, heading_drift=0.0, recognition_error=0.3, gate=3.0)
     slam = ScriptedSLAM()
     localiser = Localiser(slam, np.zeros(4), config)
-    where = drive(localiser, 501)  # sigma 1.0 m; the gate: 3 * hypot(1.0, 0.3) = 3.13 m
-    slam.next = {"pose": where.pose + np.array([0.0, 4.0, 0.0, 0.0]), "loop_closure": True, "experience": 1}
-    after = localiser.step(IMAGE, 50.1, odometry=STOPPED)
+    drive(localiser, 501)  # experience 1 at the start; 50 m east
+    where = drive(localiser, 460, start_time=50.1, motion=BACK)  # 46 m back
+    slam.next = {"pose": where.pose, "loop_closure": True, "experience": 1}
+    after = localiser.step(IMAGE, 96.1, odometry=STOPPED)
     assert after.rejected and localiser.rejections == 1
     np.testing.assert_allclose(after.pose, where.pose)  # its height agreed (taken), its plane did not
 
 
 def test_recognitions_that_agree_again_and_again_outside_the_gate_are_taken():
-    """Three in a row, each 4 m north of the prediction (wheels that slipped): the third moves the pose."""
-    config = LocalisationConfig(distance_drift=0.02, turn_drift=0.0, heading_drift=0.0, recognition_error=0.3,
+    """Three in a row, each 4 m west of the prediction (wheels that slipped): the third moves the pose."""
+    config = LocalisationConfig(distance_drift=0.01, turn_drift=0.0, heading_drift=0.0, recognition_error=0.3,
                                 persistence=3)
     slam = ScriptedSLAM()
     localiser = Localiser(slam, np.zeros(4), config)
-    where = drive(localiser, 501)
+    drive(localiser, 501)
+    where = drive(localiser, 460, start_time=50.1, motion=BACK)
     for k in range(3):
-        slam.next = {"pose": where.pose + np.array([0.0, 4.0, 0.0, 0.0]), "loop_closure": True, "experience": 1}
-        after = localiser.step(IMAGE, 50.1 + 0.1 * k, odometry=STOPPED)
+        slam.next = {"pose": where.pose, "loop_closure": True, "experience": 1}
+        after = localiser.step(IMAGE, 96.1 + 0.1 * k, odometry=STOPPED)
         assert after.rejected == (k < 2)
-    np.testing.assert_allclose(after.pose, where.pose + np.array([0.0, 4.0, 0.0, 0.0]))
+    np.testing.assert_allclose(after.pose, np.zeros(4), atol=1e-9)
     assert after.position_error == pytest.approx(0.3)
 
 
@@ -112,19 +122,20 @@ def test_a_loaded_map_is_aligned_from_several_recognitions_not_snapped_to_the_fi
     """The map's frame is the task's turned by 90° and shifted. The merge and the next three recognitions
     correct nothing; the fifth, once they span 5 m, aligns the frame, and from then on they correct."""
     map_from_task = np.array([10.0, -4.0, 2.0, math.pi / 2])  # a task pose p is compose(map_from_task, p) in the map
+    MAPPED = 10_000  # an experience of the loaded map (this session never laid it)
     slam = ScriptedSLAM()
     localiser = Localiser(slam, np.zeros(4), LocalisationConfig(), loaded_map=True)
     assert slam.sessions == ["unknown"] and not localiser.aligned
     drive(localiser, 1)
     assert localiser.aligned  # its own session's frame starts at the task's start
-    slam.next = {"merged": True, "pose": compose(map_from_task, localiser.pose), "experience": 7}
+    slam.next = {"merged": True, "pose": compose(map_from_task, localiser.pose), "experience": MAPPED}
     where = localiser.step(IMAGE, 0.1, odometry=STOPPED)
     assert not localiser.aligned and not where.corrected
     time = 0.2
     for k in range(4):
         drive(localiser, 19, start_time=time)  # 1.9 m on
         time += 1.9
-        slam.next = {"loop_closure": True, "pose": compose(map_from_task, localiser.pose), "experience": 7}
+        slam.next = {"loop_closure": True, "pose": compose(map_from_task, localiser.pose), "experience": MAPPED}
         where = localiser.step(IMAGE, time, odometry=STOPPED)
         time += 0.1
         assert localiser.aligned == (k == 3)  # the merge's pair and four more
@@ -132,10 +143,11 @@ def test_a_loaded_map_is_aligned_from_several_recognitions_not_snapped_to_the_fi
     # now a recognition that says the robot is 0.5 m south of its prediction moves it there by the weights
     drive(localiser, 100, start_time=time)
     truth = localiser.pose + np.array([0.0, -0.5, 0.0, 0.0])
-    slam.next = {"loop_closure": True, "pose": compose(map_from_task, truth), "experience": 7}
-    before = localiser.pose.copy()
+    slam.next = {"loop_closure": True, "pose": compose(map_from_task, truth), "experience": MAPPED}
+    before, sigma = localiser.pose.copy(), float(localiser.sigma[0])
     where = localiser.step(IMAGE, time + 10.0, odometry=STOPPED)
-    assert where.corrected and -0.5 < where.pose[1] - before[1] < -0.25
+    noise = math.hypot(0.5, 0.3)  # a loaded map's place: map_error and recognition_error (an exact alignment)
+    assert where.corrected and where.pose[1] - before[1] == pytest.approx(-0.5 * sigma**2 / (sigma**2 + noise**2))
     assert abs(where.pose[0] - before[0]) < 1e-6  # an exact alignment moves nothing sideways
 
 

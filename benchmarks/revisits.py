@@ -4,9 +4,10 @@ Run: ``python benchmarks/revisits.py WORLD [WORLD ...] [--sequential 12] [--patr
 [--seed 0] [--pose slam]``. A measurement, not a test: it asserts nothing and is not part of the pytest run.
 About half a minute an episode of 12 goals here.
 
-It drives the planner on ``NeuroSLAM/SequentialPointNav-v0`` as ``neuroslam nav --sequential`` does, with
-NeuroSLAM (wheels + camera) as its pose source, and records each frame's true pose, its view (the local
-view cells' thumbnail) and the template NeuroSLAM took. A frame *revisits* a place where the robot was at
+It drives the planner on ``NeuroSLAM/SequentialPointNav-v0`` as ``neuroslam nav --sequential`` does
+(:func:`neuroslam.lab.nav.run_episode` with a per-step recorder), with NeuroSLAM (wheels + camera) as its
+pose source, and records each frame's true pose, its view (the local view cells' thumbnail) and the
+template NeuroSLAM took. A frame *revisits* a place where the robot was at
 least ``confirmation_age`` (30 s) earlier within 1 m horizontally, 0.5 m vertically and 20° of heading
 (the view cells' column shifts reach ±20° with the ``sim`` preset: 4 of 16 columns of an 81.5° view). Per
 world it prints
@@ -27,13 +28,12 @@ from __future__ import annotations
 import argparse
 import math
 
-import gymnasium as gym
 import numpy as np
 from scipy.spatial import cKDTree
 
 import sim
 from neuroslam.geometry import wrap
-from neuroslam.lab.nav import EpisodeRunner
+from neuroslam.lab.nav import run_episode
 from neuroslam.vision.preprocessing import grey
 from sim.navigation import DrivableGraph
 
@@ -42,33 +42,25 @@ RADIUS, HEIGHT, HEADING = 1.0, 0.5, math.radians(20.0)
 
 
 def drive(world_name: str, seed: int, goals: int, patrol: int | None, pose: str) -> dict:
-    """One episode; per frame: time, true pose, template id, whether new, thumbnail, bumper."""
-    world = sim.load_world(world_name)
-    env = gym.make("NeuroSLAM/SequentialPointNav-v0", world=world_name, goals=goals, patrol=patrol)
+    """One episode; per frame: time, true pose, pose, template id, whether new, thumbnail, bumper."""
     frames = {"time": [], "truth": [], "template": [], "new": [], "thumbnail": [], "bumped": [], "pose": []}
-    try:
-        observation, info = env.reset(seed=seed)
-        runner = EpisodeRunner(world_name, seed, "planner", pose, graph=DrivableGraph.of(world), world=world)
-        runner.begin(observation, info)
-        done = False
-        while not done:
-            observation, _, terminated, truncated, info = env.step(runner.act(observation))
-            runner.observe(observation, info)
-            done = terminated or truncated
-            estimate = runner.localiser.last.estimate
-            local_view = runner.localiser.slam.local_view
-            frames["time"].append(float(info["time"]))
-            frames["truth"].append(np.array(info["pose"], dtype=float))
-            frames["pose"].append(np.array(runner.pose, dtype=float))
-            frames["template"].append(estimate.template_id)
-            frames["new"].append(estimate.new_template)
-            frames["thumbnail"].append(local_view.thumbnail(grey(observation["image"])))
-            frames["bumped"].append(bool(np.asarray(observation["bumper"]).ravel()[0]))
-        rows = runner.finish(info)
-    finally:
-        env.close()
+    held = {}
+
+    def record(runner, observation, info) -> None:
+        estimate = runner.localiser.last.estimate
+        held["local_view"] = local_view = runner.localiser.slam.local_view
+        frames["time"].append(float(info["time"]))
+        frames["truth"].append(np.array(info["pose"], dtype=float))
+        frames["pose"].append(np.array(runner.pose, dtype=float))
+        frames["template"].append(estimate.template_id)
+        frames["new"].append(estimate.new_template)
+        frames["thumbnail"].append(local_view.thumbnail(grey(observation["image"])))
+        frames["bumped"].append(bool(np.asarray(observation["bumper"]).ravel()[0]))
+
+    graph = DrivableGraph.of(sim.load_world(world_name))
+    rows = run_episode(world_name, seed, "planner", pose, graph=graph, goals=goals, patrol=patrol, on_step=record)
     out = {key: np.array(value) for key, value in frames.items()}
-    out["local_view"] = local_view
+    out["local_view"] = held["local_view"]
     out["success"] = sum(row.success for row in rows)
     out["goals"] = len(rows)
     return out

@@ -10,22 +10,21 @@ odometry it was given. :class:`Localiser` keeps one:
   heading's grows with the square root of the angle turned (each turn's error is independent) and linearly
   with the distance (a bias); the position's and the height's linearly with the distance driven, plus the
   distance times the heading's (a heading error bends the path it integrates).
-- **Correction only on confirmed recognition.** A frame on which NeuroSLAM closes a loop (the confirmed
-  rule, :func:`~neuroslam.loop_closure.confirm_place`) or merges into a loaded map gives a measurement of
-  where the robot is: at a place this localiser laid, its own pose when it laid that experience (the
-  heading turned by as much as NeuroSLAM's heading differs from the experience's then), with the
-  uncertainty it had then; at a loaded map's place, the experience map's pose expressed in the task's
-  frame, with ``map_error``. Both with the recognition's own (``recognition_error``). Not the experience
-  map's pose of an own place: the map integrates the same self-motion but is bent by NeuroSLAM's own loop
-  closures, and where the robot laid places while lost (20–30 m off, stalled in one spot for goal after
-  goal), the map's poses of them were further off than the localiser's, yet carried the localiser's smaller
-  uncertainty: recognising them moved the pose 10 m the wrong way (gen:4, docs/navigation.md). A measurement farther from the prediction than ``gate``
-  standard deviations of their difference is rejected (the plane and the height each through their own
-  gate), unless ``persistence`` rejected ones in a row agree with one another: then the prediction is what
-  is wrong, and the pose takes the measurement. An accepted one is fused with the inverse-variance weights
-  of a Kalman update per degree of freedom. Repeated recognitions of one place are not
-  independent (the place's error is a bias), so fusion never claims more than the measurement's own
-  uncertainty over √2.
+- **Correction only on confirmed recognition.** A frame on which NeuroSLAM closes a loop (the confirmed rule,
+  :func:`~neuroslam.loop_closure.confirm_place`) or merges into a loaded map gives a measurement of where the
+  robot is: at a place this localiser laid, its own pose when it laid that experience (the heading turned by
+  as much as NeuroSLAM's heading differs from the experience's then), with the uncertainty it had then; at a
+  loaded map's place, the experience map's pose expressed in the task's frame, with ``map_error``. Both with
+  the recognition's own (``recognition_error``). Not the experience map's pose of an own place: the map
+  integrates the same self-motion but is bent by NeuroSLAM's own loop closures, and where the robot laid
+  places while lost (20–30 m off, stalled in one spot for goal after goal), the map's poses of them were
+  further off than the localiser's, yet carried the localiser's smaller uncertainty: recognising them moved
+  the pose 10 m the wrong way (gen:4, docs/navigation.md). A measurement farther from the prediction than
+  ``gate`` standard deviations of their difference is rejected (the plane and the height each through their
+  own gate), unless ``persistence`` rejected ones in a row agree with one another: then the prediction is what
+  is wrong, and the pose takes the measurement. An accepted one is fused with the inverse-variance weights of
+  a Kalman update per degree of freedom. Repeated recognitions of one place are not independent (the place's
+  error is a bias), so fusion never claims more than the measurement's own uncertainty over √2.
 - **A loaded map's frame is aligned robustly.** A map of an earlier drive is in that drive's frame. The
   session starts as an unknown start (its own frame, the task's start pose); once it merges into the map,
   each recognition pairs the predicted pose (task frame) with the map's (map frame), and the rigid

@@ -109,6 +109,19 @@ def test_every_row_carries_the_wheels_error_on_the_same_frames(tmp_path):
             assert setting["plane_error_above_wheels_m"] < 0.0 and setting["not_worse_than_wheels"] == 1.0
 
 
+def test_run_episode_calls_its_recorder_after_every_step():
+    """``on_step`` sees every step the runner took, with the runner's pose for it."""
+    from neuroslam.lab.nav import run_episode
+
+    world = sim.load_world("gen:2")
+    seen = []
+    rows = run_episode("gen:2", 0, "planner", "groundtruth", graph=DrivableGraph.of(world),
+                       on_step=lambda runner, observation, info: seen.append((runner.steps, runner.pose.copy(),
+                                                                             np.array(info["pose"]))))
+    assert [step for step, _, _ in seen] == list(range(1, rows[0].steps + 1))
+    assert all(np.array_equal(pose, truth) for _, pose, truth in seen)
+
+
 def test_an_unknown_agent_is_refused_before_any_episode(tmp_path):
     assert main(["nav", "gen:2", "--agent", "nowhere:Agent", "--out", str(tmp_path)]) == 2
     assert not (tmp_path / "episodes.csv").exists()

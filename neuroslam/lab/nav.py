@@ -365,9 +365,11 @@ def _environment(world_name: str, goal_sensor: str, max_steps: int, goals: int =
 
 def run_episode(world_name: str, seed: int, agent_name: str, pose_source: str, *, graph, goal_sensor: str = "gps",
                 load_map: Path | None = None, max_steps: int = 1500, goals: int = 1,
-                patrol: int | None = None) -> list[GoalResult]:
+                patrol: int | None = None, on_step=None) -> list[GoalResult]:
     """One seeded episode (``goals`` in a row, the places of a ``patrol`` round after round where given;
-    ``max_steps`` per goal); a row per goal."""
+    ``max_steps`` per goal); a row per goal. ``on_step(runner, observation, info)``, where given, is called
+    after every step (the :class:`EpisodeRunner` has taken it: its ``pose``, its ``localiser``), to record
+    what the rows do not hold."""
     env = _environment(world_name, goal_sensor, max_steps, goals, patrol)
     try:
         observation, info = env.reset(seed=seed)
@@ -378,6 +380,8 @@ def run_episode(world_name: str, seed: int, agent_name: str, pose_source: str, *
         while not done:
             observation, _, terminated, truncated, info = env.step(runner.act(observation))
             runner.observe(observation, info)
+            if on_step is not None:
+                on_step(runner, observation, info)
             done = terminated or truncated
         return runner.finish(info)
     finally:

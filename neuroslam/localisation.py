@@ -268,13 +268,14 @@ class Localiser:
         (returns whether a part was corrected, whether a part was rejected)."""
         c = self.config
         place = self._places.get(estimate.experience_id)
-        if place is None:  # a loaded map's place: where the map has it, in the task's frame
+        if place is None:  # a loaded map's place: where the map has it, through the fitted alignment
             measured = compose(self._alignment, estimate.pose)
-            place = _Place(c.map_error, c.map_error, c.map_error / 10)
-        else:  # a place this localiser laid: where it was then, the uncertainty it had then
+            place, alignment_error = _Place(c.map_error, c.map_error, c.map_error / 10), self._alignment_error
+        else:  # a place this localiser laid: where it was then, the uncertainty it had then (no alignment)
             measured = place.pose.copy()
             measured[3] = wrap(float(place.pose[3] + estimate.pose[3] - place.map_pose[3]))
-        noise = np.array([math.hypot(place.position, c.recognition_error, self._alignment_error),
+            alignment_error = 0.0
+        noise = np.array([math.hypot(place.position, c.recognition_error, alignment_error),
                           math.hypot(place.height, c.recognition_error),
                           math.hypot(place.heading, c.recognition_heading_error)])
         difference = np.array([measured[0] - self.pose[0], measured[1] - self.pose[1], measured[2] - self.pose[2],

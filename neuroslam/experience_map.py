@@ -25,7 +25,7 @@ from .cells.attractor import wrapped_distance
 from .config import ExperienceMapConfig
 from .geometry import compose, inverse, wrap
 from .map_sessions import STATE_ARRAYS, MapSessionsMixin
-from .relaxation import SETTLED, relax_passes, solve_least_squares
+from .relaxation import SETTLED, StructureTerms, relax_passes, solve_least_squares
 
 __all__ = ["ExperienceMap", "MapUpdate"]
 
@@ -78,6 +78,8 @@ class ExperienceMap(MapSessionsMixin):
         self._components = GrowingArray(0, np.int64)  # which connected map each experience belongs to
         self._sessions = GrowingArray(0, np.int64)  # which session made each experience
         self._odometers = GrowingArray(0, np.float64)  # the session's path length when each experience was made, m
+        self._structure = GrowingArray(0, np.float64)  # the floor lines' orientation when each was made (eq. M4), rad
+        self._structure_odometer = 0.0  # m, the odometer when eq. M4 last started a solve
         self._linked: set[tuple[int, int]] = set()
         self._by_template: dict[int, list[int]] = {}
         self._settled = True
@@ -153,6 +155,12 @@ class ExperienceMap(MapSessionsMixin):
         return self._odometers.view
 
     @property
+    def structure_orientations(self) -> np.ndarray:
+        """(N,) the orientation of the floor's straight lines in each experience's frame when it was made (rad,
+        modulo 90°: phi of eq. M2 of :mod:`neuroslam.vision.structure`); NaN where none were seen."""
+        return self._structure.view
+
+    @property
     def link_times(self) -> np.ndarray:
         """(L,) seconds between leaving the source and reaching the target."""
         return self._link_times.view
@@ -167,7 +175,8 @@ class ExperienceMap(MapSessionsMixin):
         state = {name: getattr(self, attribute).view.copy() for name, (attribute, _, _) in STATE_ARRAYS.items()}
         state.update(settled=np.bool_(self._settled), current=np.int64(self.current), relative=self.relative.copy(),
                      loop_closures=np.int64(self.loop_closures), component=np.int64(self.component),
-                     session=np.int64(self.session), odometer=np.float64(self.odometer))
+                     session=np.int64(self.session), odometer=np.float64(self.odometer),
+                     structure_odometer=np.float64(self._structure_odometer))
         return state
 
     def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
@@ -178,6 +187,8 @@ class ExperienceMap(MapSessionsMixin):
                 rows = np.ones(len(state["links"]))  # a map saved before links had weights: all alike
             elif name == "odometers" and name not in state and "poses" in state:
                 rows = np.full(len(state["poses"]), -np.inf)  # a map saved before odometers were kept
+            elif name == "structure_orientations" and name not in state and "poses" in state:
+                rows = np.full(len(state["poses"]), np.nan)  # a map saved before eq. M4: no lines seen
             else:
                 rows = state[name]
             try:
@@ -187,7 +198,7 @@ class ExperienceMap(MapSessionsMixin):
         size, links = grown["_poses"].count, grown["_links"].view
         if any(grown[attribute].count != size for attribute in ("_grid_codes", "_direction_codes", "_templates",
                                                                  "_times", "_degree", "_components", "_sessions",
-                                                                 "_odometers")):
+                                                                 "_odometers", "_structure")):
             raise ValueError("the per-experience arrays differ in length")
         if any(grown[attribute].count != len(links) for attribute in ("_link_poses", "_link_times", "_link_weights")):
             raise ValueError("the per-link arrays differ in length")
@@ -209,6 +220,7 @@ class ExperienceMap(MapSessionsMixin):
         self.component = int(state["component"])
         self.session = int(state["session"])
         self.odometer = float(state.get("odometer", 0.0))
+        self._structure_odometer = float(state.get("structure_odometer", self.odometer))
 
     def robot_pose(self) -> np.ndarray:
         """The robot's pose in the map: the current experience composed with the odometry since it."""
@@ -264,7 +276,7 @@ class ExperienceMap(MapSessionsMixin):
         return candidates[self.components[candidates] == self.component]
 
     def update(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float, *,
-               may_close_loop: bool = True, place: int = -1) -> MapUpdate:
+               may_close_loop: bool = True, place: int = -1, structure: float = math.nan) -> MapUpdate:
         """Match the current conjunctive code, create or re-enter an experience, relax after a loop closure.
 
         With ``may_close_loop`` False (an unconfirmed place under the ``confirmed`` rule) a match that
@@ -275,10 +287,13 @@ class ExperienceMap(MapSessionsMixin):
         there, not at whichever other experience of the view scores best (along a corridor a view has
         experiences every metre or two, and the drifted codes may lie nearer a neighbour of the confirmed
         one). When NeuroSLAM eq. 22 re-enters the current experience
-        or one linked to it, that stands (the robot follows the map; no loop closes).
+        or one linked to it, that stands (the robot follows the map; no loop closes). ``structure``: the
+        orientation of the floor's straight lines in the robot's frame this frame (rad, modulo 90°; NaN where
+        none were seen), kept with an experience made now for eq. M4 (``structure_weight``).
         """
         if self.current < 0:
-            self._create(template_id, grid_code, direction_code, time, pose=self.relative.copy())
+            self._create(template_id, grid_code, direction_code, time, pose=self.relative.copy(),
+                         structure=structure)
             self.relative[:] = 0
             return MapUpdate(self.current, True, False)
         candidates = self._candidates(template_id)
@@ -298,9 +313,10 @@ class ExperienceMap(MapSessionsMixin):
         on_the_spot = closes_loop and not may_close_loop and self._on_the_spot(best)
         if best_score > self.config.threshold or (closes_loop and not may_close_loop and not on_the_spot):
             previous = self.current
-            self._create(template_id, grid_code, direction_code, time, pose=self.robot_pose())
+            self._create(template_id, grid_code, direction_code, time, pose=self.robot_pose(), structure=structure)
             self._link(previous, self.current, time)
             self.relative[:] = 0
+            self._structure_due()
             self._relax(self.config.idle_passes)
             return MapUpdate(self.current, True, False)
         if best == self.current:
@@ -341,7 +357,7 @@ class ExperienceMap(MapSessionsMixin):
 
     # graph ----------------------------------------------------------------------------------------------
     def _create(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float,
-                pose: np.ndarray) -> None:
+                pose: np.ndarray, structure: float = math.nan) -> None:
         self._poses.append(pose)
         self._grid_codes.append(grid_code)
         self._direction_codes.append(direction_code)
@@ -352,7 +368,18 @@ class ExperienceMap(MapSessionsMixin):
         self._components.append(self.component)
         self._sessions.append(self.session)
         self._odometers.append(self.odometer)
+        self._structure.append(float(structure))
         self.current = self.size - 1
+
+    def _structure_due(self) -> None:
+        """Start a solve every ``structure_interval`` metres driven while eq. M4 is on: between loop closures
+        the odometry's heading drifts away from the lines its new experiences saw, and a solve holds the map
+        to them before the drift reaches the lines' own scatter."""
+        config = self.config
+        if (config.structure_weight > 0 and config.relaxation == "least-squares"
+                and self.odometer - self._structure_odometer >= config.structure_interval):
+            self._structure_odometer = self.odometer
+            self._settled = False
 
     def _link(self, source: int, target: int, time: float, *, weight: float = 1.0) -> None:
         """Link ``source`` → ``target`` with the odometry accumulated since ``source`` (NeuroSLAM eq. 23); ``weight``
@@ -384,9 +411,14 @@ class ExperienceMap(MapSessionsMixin):
         local = np.full(self.size, -1)
         local[members] = np.arange(len(members))
         inside = local[self.links[:, 0]] >= 0
+        structure = None
+        if self.config.structure_weight > 0:
+            seen = members[np.isfinite(self.structure_orientations[members])]
+            structure = StructureTerms(local[seen], self.structure_orientations[seen], self.config.structure_weight,
+                                       self.config.structure_tolerance)
         poses, self._settled = solve_least_squares(
             self._poses.data[members], local[self.links[inside, 0]], local[self.links[inside, 1]],
-            self.link_poses[inside], self._link_weights.view[inside])
+            self.link_poses[inside], self._link_weights.view[inside], structure)
         self._poses.data[members] = poses
 
     def _relax_passes(self, passes: int) -> None:

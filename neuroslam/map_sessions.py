@@ -30,6 +30,7 @@ STATE_ARRAYS = {
     "link_weights": ("_link_weights", 0, np.float64),
     "degree": ("_degree", 0, np.int64), "components": ("_components", 0, np.int64),
     "sessions": ("_sessions", 0, np.int64), "odometers": ("_odometers", 0, np.float64),
+    "structure_orientations": ("_structure", 0, np.float64),
 }
 
 

@@ -9,13 +9,15 @@ map and decides when to call them (``ExperienceMapConfig.relaxation``).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
 from .geometry import wrap
 
-__all__ = ["relax_passes", "solve_least_squares"]
+__all__ = ["StructureTerms", "quarter_wrap", "relax_passes", "solve_least_squares", "structure_axis"]
 
 SETTLED = 1e-4  # m or rad: relaxation stops once no experience moves more than this in a pass
 LEAST_SQUARES_ITERATIONS = 3  # Gauss–Newton iterations at most per call; an unfinished solve goes on next call
@@ -25,8 +27,51 @@ LEAST_SQUARES_HALVINGS = 20  # step halvings tried before a Gauss–Newton step 
 PASS_HALVINGS = 20
 
 
+@dataclass(frozen=True)
+class StructureTerms:
+    """Heading observations against the scene's straight lines, for :func:`solve_least_squares` (eq. M4).
+
+    Attributes:
+        experiences: (m,) indices (into the solve's ``poses``) of the experiences that saw lines.
+        orientations: (m,) the lines' orientation in each experience's frame when it was made, rad (phi of
+            eq. M2 of :mod:`neuroslam.vision.structure`, defined modulo 90°).
+        weight: the weight of each one's squared error (rad²), relative to a driven link's.
+        tolerance: rad, the scale of the Cauchy weighting that makes a misread orientation count less
+            (an error of ``tolerance`` counts half, of three times it a tenth).
+    """
+
+    experiences: np.ndarray
+    orientations: np.ndarray
+    weight: float
+    tolerance: float
+
+
+def quarter_wrap(angle: np.ndarray | float) -> np.ndarray:
+    """Angles wrapped to [-pi/4, pi/4), rad: the same direction modulo 90 degrees."""
+    return (np.asarray(angle) + np.pi / 4) % (np.pi / 2) - np.pi / 4
+
+
+STRUCTURE_AXIS_ITERATIONS = 5  # reweightings of structure_axis's mean
+
+
+def structure_axis(yaws: np.ndarray, orientations: np.ndarray, tolerance: float | None = None) -> float:
+    """The lines' direction in the map frame that a set of experiences agrees on best (modulo 90°, rad): the
+    circular mean of their yaw plus their lines' orientation, taken on the fourth multiple of the angle; with
+    ``tolerance`` (rad), reweighted :data:`STRUCTURE_AXIS_ITERATIONS` times by eq. M4's Cauchy weights, so that
+    misread lines, which all lie to one side of a wall, do not pull it."""
+    directions = yaws + orientations
+    axis = float(np.angle(np.mean(np.exp(4j * directions))) / 4)
+    if tolerance is None:
+        return axis
+    for _ in range(STRUCTURE_AXIS_ITERATIONS):
+        error = quarter_wrap(directions - axis)
+        weight = 1 / (1 + (error / tolerance) ** 2)
+        axis += float(np.angle(np.sum(weight * np.exp(4j * error))) / 4)
+    return axis
+
+
 def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndarray, link_poses: np.ndarray,
-                        weights: np.ndarray) -> tuple[np.ndarray, bool]:
+                        weights: np.ndarray, structure: StructureTerms | None = None) -> tuple[np.ndarray, bool]:
     """The least-squares map of NeuroSLAM eq. 25's link errors, found by Gauss–Newton on the sparse link graph.
 
     NeuroSLAM eq. 25 moves every experience by a fraction of its links' errors per pass, reducing the sum of
@@ -42,7 +87,17 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
         r_z = z_source + height − z_target,   r_yaw = wrap(yaw_source + facing − yaw_target),
 
     linearised (including the dependence of r_xy on the source's yaw), and the normal equations
-    solved by a sparse LU, the first experience held fixed. One call runs at most
+    solved by a sparse LU, the first experience held fixed.
+
+    With ``structure`` (eq. M4, not in the NeuroSLAM paper), each experience that saw the floor's straight
+    lines adds a residual on its yaw: buildings are built along two perpendicular directions, so the lines'
+    orientation phi_i in the experience's frame plus its yaw is one direction psi of the whole map, modulo 90°,
+
+        r_i = sqrt(w_i) · wrap_90(yaw_i + phi_i − psi),   w_i = weight / (1 + (u_i / tolerance)²)      (M4)
+
+    psi solved with the poses (it starts at :func:`structure_axis` of the experiences), u_i the residual at the
+    call's start (a Cauchy weighting, fixed within a call and updated at the next). The odometry's heading
+    drifts; the lines' does not, so these residuals hold the map's heading where no loop closes. One call runs at most
     ``LEAST_SQUARES_ITERATIONS`` iterations, each step halved until the total error does not rise (so a
     solve never increases it, even where a false closure makes the links disagree grossly); a solve that
     has not converged (no experience moving more than 1 mm) goes on at the next call, so no frame waits
@@ -54,16 +109,16 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
         link_poses: (L, 4) each link's distance (m), heading (rad, from the source's yaw), facing (rad,
             the target's yaw relative to the source's) and height change (m).
         weights: (L,) each link's weight.
+        structure: eq. M4's observations, or None (then the solve is the links' alone).
 
     Returns (poses (n, 4) after the iterations, settled: whether the solve converged).
     """
+    if structure is not None and len(structure.experiences):
+        return _solve_with_structure(poses, sources, targets, link_poses, weights, structure)
     n = len(poses)
     distance, heading, facing, height = link_poses.T
     count = len(sources)
     root_weight = np.sqrt(weights)
-    tiled_weight = np.tile(root_weight, 10)  # one per Jacobian entry below
-    rows = np.arange(count)
-    ones = np.ones(count)
 
     def residual_at(poses: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         direction = poses[sources, 3] + heading
@@ -78,12 +133,7 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
     cost = float(residual @ residual)
     for _ in range(LEAST_SQUARES_ITERATIONS):
         # Jacobian: residual block a (x, y, z, yaw) against the source's and target's variables
-        jacobian_rows = np.concatenate([rows, rows, rows, rows + count, rows + count, rows + count,
-                                        rows + 2 * count, rows + 2 * count, rows + 3 * count, rows + 3 * count])
-        columns = np.concatenate([4 * sources, 4 * targets, 4 * sources + 3, 4 * sources + 1, 4 * targets + 1,
-                                  4 * sources + 3, 4 * sources + 2, 4 * targets + 2, 4 * sources + 3,
-                                  4 * targets + 3])
-        values = np.concatenate([ones, -ones, -sin, ones, -ones, cos, ones, -ones, ones, -ones]) * tiled_weight
+        jacobian_rows, columns, values = _link_jacobian(sources, targets, cos, sin, root_weight)
         # the first experience stays where it is: its columns leave the system (a stiff prior on it
         # instead would make the normal equations too ill-conditioned to solve on long chains)
         jacobian = scipy.sparse.csc_matrix((values, (jacobian_rows, columns)), shape=(4 * count, 4 * n))[:, 4:]
@@ -106,6 +156,74 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
             return poses, True
         poses, residual, cos, sin, cost = trial, trial_residual, trial_cos, trial_sin, trial_cost
         if len(step) == 0 or np.abs(step).max() < LEAST_SQUARES_SETTLED:  # the full step, not a halved one
+            return poses, True
+    return poses, False
+
+
+def _link_jacobian(sources: np.ndarray, targets: np.ndarray, cos: np.ndarray, sin: np.ndarray,
+                   root_weight: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The link residuals' Jacobian entries (rows, columns, values) over the 4 n pose variables."""
+    count = len(sources)
+    rows = np.arange(count)
+    ones = np.ones(count)
+    jacobian_rows = np.concatenate([rows, rows, rows, rows + count, rows + count, rows + count,
+                                    rows + 2 * count, rows + 2 * count, rows + 3 * count, rows + 3 * count])
+    columns = np.concatenate([4 * sources, 4 * targets, 4 * sources + 3, 4 * sources + 1, 4 * targets + 1,
+                              4 * sources + 3, 4 * sources + 2, 4 * targets + 2, 4 * sources + 3, 4 * targets + 3])
+    values = np.concatenate([ones, -ones, -sin, ones, -ones, cos, ones, -ones, ones, -ones]) * np.tile(root_weight, 10)
+    return jacobian_rows, columns, values
+
+
+def _solve_with_structure(poses: np.ndarray, sources: np.ndarray, targets: np.ndarray, link_poses: np.ndarray,
+                          weights: np.ndarray, structure: StructureTerms) -> tuple[np.ndarray, bool]:
+    """:func:`solve_least_squares` with eq. M4's residuals: the same Gauss–Newton steps, halvings and
+    settling, over the poses and psi."""
+    n = len(poses)
+    distance, heading, facing, height = link_poses.T
+    count = len(sources)
+    root_weight = np.sqrt(weights)
+    seen, orientations = np.asarray(structure.experiences, dtype=np.int64), np.asarray(structure.orientations)
+    axis = structure_axis(poses[seen, 3], orientations, structure.tolerance)
+    start = quarter_wrap(poses[seen, 3] + orientations - axis)
+    root_structure = np.sqrt(structure.weight / (1 + (start / structure.tolerance) ** 2))
+    structure_rows = 4 * count + np.arange(len(seen))
+
+    def residual_at(poses: np.ndarray, axis: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        direction = poses[sources, 3] + heading
+        cos, sin = distance * np.cos(direction), distance * np.sin(direction)
+        return np.concatenate([
+            (poses[sources, 0] + cos - poses[targets, 0]) * root_weight,
+            (poses[sources, 1] + sin - poses[targets, 1]) * root_weight,
+            (poses[sources, 2] + height - poses[targets, 2]) * root_weight,
+            wrap(poses[sources, 3] + facing - poses[targets, 3]) * root_weight,
+            quarter_wrap(poses[seen, 3] + orientations - axis) * root_structure]), cos, sin
+
+    residual, cos, sin = residual_at(poses, axis)
+    cost = float(residual @ residual)
+    for _ in range(LEAST_SQUARES_ITERATIONS):
+        rows, columns, values = _link_jacobian(sources, targets, cos, sin, root_weight)
+        rows = np.concatenate([rows, structure_rows, structure_rows])
+        columns = np.concatenate([columns, 4 * seen + 3, np.full(len(seen), 4 * n)])  # psi: the last column
+        values = np.concatenate([values, root_structure, -root_structure])
+        jacobian = scipy.sparse.csc_matrix((values, (rows, columns)), shape=(len(residual), 4 * n + 1))[:, 4:]
+        normal = (jacobian.T @ jacobian).tocsc()
+        full_step = scipy.sparse.linalg.splu(normal).solve(-(jacobian.T @ residual))
+        step, axis_step = full_step[:-1].reshape(n - 1, 4), float(full_step[-1])
+        scale = 1.0
+        for _halving in range(LEAST_SQUARES_HALVINGS):
+            trial = poses.copy()
+            trial[1:] += scale * step
+            trial[:, 3] = wrap(trial[:, 3])
+            trial_axis = axis + scale * axis_step
+            trial_residual, trial_cos, trial_sin = residual_at(trial, trial_axis)
+            trial_cost = float(trial_residual @ trial_residual)
+            if trial_cost <= cost:
+                break
+            scale /= 2
+        else:
+            return poses, True
+        poses, axis, residual, cos, sin, cost = trial, trial_axis, trial_residual, trial_cos, trial_sin, trial_cost
+        if np.abs(full_step).max() < LEAST_SQUARES_SETTLED:
             return poses, True
     return poses, False
 

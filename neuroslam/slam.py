@@ -39,9 +39,11 @@ from .geometry import compose, wrap
 from .loop_closure import confirm_place
 from .sessions import SessionsMixin
 from .state import MAP_FILE, StateMixin
+from .vision.ground_motion import blurred_with_gradients
 from .vision.local_view import LocalViewCells
 from .vision.odometry import SelfMotion, VisualOdometry
-from .vision.preprocessing import grey
+from .vision.preprocessing import grey, reduce_to_width
+from .vision.structure import StructureHeading
 
 __all__ = ["MAP_FILE", "Estimate", "NeuroSLAM"]
 
@@ -81,6 +83,11 @@ class NeuroSLAM(SessionsMixin, StateMixin):
                                             direction_size=c.head_direction.size, grid_cell_size=c.grid_cells.cell_size)
         # what each template learned: the packets' codes, its decay, the map it was learned in
         self.view_associations = ViewAssociations()
+        # the floor's straight lines, read each frame for the map's eq. M4 (a pinhole camera only)
+        self._lines = (StructureHeading(horizontal_fov=c.horizontal_fov, strength=c.odometry.manhattan_strength,
+                                        first_row=c.odometry.manhattan_first_row)
+                       if c.experience_map.structure_weight > 0 and c.experience_map.relaxation == "least-squares"
+                       and not c.panoramic else None)
         self._image_shape: tuple[int, ...] | None = None
         self._last_time: float | None = None
         self._odometry_pose = np.zeros(4)
@@ -209,7 +216,8 @@ class NeuroSLAM(SessionsMixin, StateMixin):
                 grid_code, direction_code = self._relocate(place, view.relative_yaw, grid_code, direction_code)
 
         update = themap.update(view.template_id, grid_code, direction_code, float(timestamp),
-                               may_close_loop=may_close_loop, place=-1 if merged else place)  # the confirmed place
+                               may_close_loop=may_close_loop, place=-1 if merged else place,  # the confirmed place
+                               structure=self._floor_lines(image_grey, visual=odometry is None))
         if update.loop_closure or (not update.new_experience and self._is_old(update.experience_id, float(timestamp))):
             self._since_closure = 0.0  # on an old experience: localised in the map
         self._frame_experiences.append(update.experience_id)
@@ -225,6 +233,18 @@ class NeuroSLAM(SessionsMixin, StateMixin):
         if update.loop_closure:
             logger.debug("frame %d: loop closed at experience %d", self.frames, update.experience_id)
         return self.last
+
+    def _floor_lines(self, image_grey: np.ndarray, *, visual: bool) -> float:
+        """The orientation of the floor's straight lines in the robot's frame (rad, modulo 90°; eq. M2), or NaN
+        where eq. M4 is off or the floor's edges do not lie mostly along two perpendicular directions. From the
+        visual odometry's image of this frame when it ran (``visual``), else from the image itself."""
+        if self._lines is None:
+            return math.nan
+        stack = self.visual_odometry.image_stack if visual else None
+        if stack is None:
+            stack = blurred_with_gradients(reduce_to_width(image_grey, self.config.odometry.working_width), 1.0)
+        orientation, strength = self._lines.edge_orientation(stack, 1)
+        return orientation if strength >= self._lines.strength else math.nan
 
     def trajectory(self) -> np.ndarray:
         """(N, 4) every frame's pose (x, y, z, yaw; m, rad) in the map as it is now.

@@ -59,6 +59,17 @@ class ExperienceMapConfig:
             a link made by driving (1: all alike). A closure puts the robot on a remembered experience
             that it may pass up to ``confirmation_tolerance`` away from; a link driven between two
             experiences is accurate to centimetres.
+        structure_weight: weight of eq. M4's residual (rad²) per experience that saw the floor's straight
+            lines, relative to a driven link's yaw error; 0 leaves the lines out (the paper's map). Eq. M4
+            (:mod:`neuroslam.relaxation`) holds the map's heading to the lines' direction, modulo 90°, where
+            no loop closes; only with ``relaxation = "least-squares"``. 0.05: the lines' orientation scatters
+            by about 2° a frame (35 mrad, :mod:`neuroslam.vision.structure`), a driven link's yaw by about 8
+            mrad (the testbed's wheels over half a metre), and (8 / 35)² ≈ 0.05.
+        structure_tolerance: rad, the Cauchy scale of eq. M4: an orientation this far from the map's counts
+            half (a wall's foot or a ramp's edge read as a floor line). 2°, the lines' per-frame scatter.
+        structure_interval: m driven between the solves eq. M4 starts (a loop closure starts its own). 10 m:
+            the wheels' heading walks about 1.7° in that distance (9.1 mrad per root metre, docs/testbed.md),
+            within ``structure_tolerance``, so the new experiences' lines are not yet weighed down as misread.
     """
 
     view_weight: float = 10.0
@@ -80,6 +91,9 @@ class ExperienceMapConfig:
     confirmation_drift: float = 0.1
     confirmation_climb_error: float = 0.3
     closure_weight: float = 0.1
+    structure_weight: float = 0.05
+    structure_tolerance: float = math.radians(2.0)
+    structure_interval: float = 10.0
 
     def __post_init__(self) -> None:
         self.validate()
@@ -109,7 +123,9 @@ class ExperienceMapConfig:
         require(f"{path}.confirmation_views", views,
                  isinstance(views, int) and not isinstance(views, bool) and 1 <= views <= 100,
                  "must be an integer from 1 to 100")
-        positive(path, confirmation_tolerance=self.confirmation_tolerance, closure_weight=self.closure_weight)
+        positive(path, confirmation_tolerance=self.confirmation_tolerance, closure_weight=self.closure_weight,
+                 structure_tolerance=self.structure_tolerance, structure_interval=self.structure_interval)
+        non_negative(path, structure_weight=self.structure_weight)
         non_negative(path, confirmation_age=self.confirmation_age, confirmation_drift=self.confirmation_drift,
                       confirmation_climb_error=self.confirmation_climb_error,
                       confirmation_spacing=self.confirmation_spacing, confirmation_turn=self.confirmation_turn)

@@ -116,18 +116,12 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
     if structure is not None and len(structure.experiences):
         return _solve_with_structure(poses, sources, targets, link_poses, weights, structure)
     n = len(poses)
-    distance, heading, facing, height = link_poses.T
     count = len(sources)
     root_weight = np.sqrt(weights)
 
     def residual_at(poses: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        direction = poses[sources, 3] + heading
-        cos, sin = distance * np.cos(direction), distance * np.sin(direction)
-        return np.concatenate([
-            (poses[sources, 0] + cos - poses[targets, 0]) * root_weight,
-            (poses[sources, 1] + sin - poses[targets, 1]) * root_weight,
-            (poses[sources, 2] + height - poses[targets, 2]) * root_weight,
-            wrap(poses[sources, 3] + facing - poses[targets, 3]) * root_weight]), cos, sin
+        blocks, cos, sin = _link_residuals(poses, sources, targets, link_poses, root_weight)
+        return np.concatenate(blocks), cos, sin
 
     residual, cos, sin = residual_at(poses)
     cost = float(residual @ residual)
@@ -160,6 +154,19 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
     return poses, False
 
 
+def _link_residuals(poses: np.ndarray, sources: np.ndarray, targets: np.ndarray, link_poses: np.ndarray,
+                    root_weight: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+    """The links' weighted residuals (x, y, z, yaw blocks) at ``poses``, and each link's rotated distance
+    (cos, sin parts) for the Jacobian."""
+    distance, heading, facing, height = link_poses.T
+    direction = poses[sources, 3] + heading
+    cos, sin = distance * np.cos(direction), distance * np.sin(direction)
+    return [(poses[sources, 0] + cos - poses[targets, 0]) * root_weight,
+            (poses[sources, 1] + sin - poses[targets, 1]) * root_weight,
+            (poses[sources, 2] + height - poses[targets, 2]) * root_weight,
+            wrap(poses[sources, 3] + facing - poses[targets, 3]) * root_weight], cos, sin
+
+
 def _link_jacobian(sources: np.ndarray, targets: np.ndarray, cos: np.ndarray, sin: np.ndarray,
                    root_weight: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The link residuals' Jacobian entries (rows, columns, values) over the 4 n pose variables."""
@@ -179,7 +186,6 @@ def _solve_with_structure(poses: np.ndarray, sources: np.ndarray, targets: np.nd
     """:func:`solve_least_squares` with eq. M4's residuals: the same Gauss–Newton steps, halvings and
     settling, over the poses and psi."""
     n = len(poses)
-    distance, heading, facing, height = link_poses.T
     count = len(sources)
     root_weight = np.sqrt(weights)
     seen, orientations = np.asarray(structure.experiences, dtype=np.int64), np.asarray(structure.orientations)
@@ -189,14 +195,8 @@ def _solve_with_structure(poses: np.ndarray, sources: np.ndarray, targets: np.nd
     structure_rows = 4 * count + np.arange(len(seen))
 
     def residual_at(poses: np.ndarray, axis: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        direction = poses[sources, 3] + heading
-        cos, sin = distance * np.cos(direction), distance * np.sin(direction)
-        return np.concatenate([
-            (poses[sources, 0] + cos - poses[targets, 0]) * root_weight,
-            (poses[sources, 1] + sin - poses[targets, 1]) * root_weight,
-            (poses[sources, 2] + height - poses[targets, 2]) * root_weight,
-            wrap(poses[sources, 3] + facing - poses[targets, 3]) * root_weight,
-            quarter_wrap(poses[seen, 3] + orientations - axis) * root_structure]), cos, sin
+        blocks, cos, sin = _link_residuals(poses, sources, targets, link_poses, root_weight)
+        return np.concatenate([*blocks, quarter_wrap(poses[seen, 3] + orientations - axis) * root_structure]), cos, sin
 
     residual, cos, sin = residual_at(poses, axis)
     cost = float(residual @ residual)

@@ -62,9 +62,11 @@ class ExperienceMapConfig:
         structure_weight: weight of eq. M4's residual (rad²) per experience that saw the floor's straight
             lines, relative to a driven link's yaw error; 0 leaves the lines out (the paper's map). Eq. M4
             (:mod:`neuroslam.relaxation`) holds the map's heading to the lines' direction, modulo 90°, where
-            no loop closes; only with ``relaxation = "least-squares"``. 0.05: the lines' orientation scatters
-            by about 2° a frame (35 mrad, :mod:`neuroslam.vision.structure`), a driven link's yaw by about 8
-            mrad (the testbed's wheels over half a metre), and (8 / 35)² ≈ 0.05.
+            no loop closes; only with ``relaxation = "least-squares"``. 0.01: the lines' orientation scatters
+            by about 2° a frame (35 mrad, :mod:`neuroslam.vision.structure`) and a driven link's yaw by about 8
+            mrad (the testbed's wheels over half a metre), (8 / 35)² ≈ 0.05 for independent errors; but a
+            misread stretch (a wall's foot taken for a floor line) lasts tens of frames, about five experiences
+            at one every half metre, which share one error, so each counts a fifth.
         structure_tolerance: rad, the Cauchy scale of eq. M4: an orientation this far from the map's counts
             half (a wall's foot or a ramp's edge read as a floor line). 2°, the lines' per-frame scatter.
         structure_interval: m driven between the solves eq. M4 starts (a loop closure starts its own). 10 m:
@@ -91,7 +93,7 @@ class ExperienceMapConfig:
     confirmation_drift: float = 0.1
     confirmation_climb_error: float = 0.3
     closure_weight: float = 0.1
-    structure_weight: float = 0.05
+    structure_weight: float = 0.01
     structure_tolerance: float = math.radians(2.0)
     structure_interval: float = 10.0
 

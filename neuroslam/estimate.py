@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,6 +25,9 @@ class Estimate:
         self_motion: the self-motion used for this frame.
         grid_cell: decoded 3D grid-cell packet, fractional cells. head_direction_cell: (yaw, height) cells.
         merged: this frame merged the robot's map into another (a loaded map it recognised).
+        floor_lines: the orientation of the floor's straight lines in the robot's frame this frame, rad,
+            modulo 90° (eq. M2 of :mod:`neuroslam.vision.structure`); NaN where the floor showed none, or
+            where the map does not read them (``experience_map.structure_weight`` 0, a panoramic camera).
     """
 
     timestamp: float
@@ -37,3 +41,4 @@ class Estimate:
     grid_cell: np.ndarray
     head_direction_cell: np.ndarray
     merged: bool = False
+    floor_lines: float = math.nan

@@ -215,9 +215,10 @@ class NeuroSLAM(SessionsMixin, StateMixin):
             if may_close_loop:
                 grid_code, direction_code = self._relocate(place, view.relative_yaw, grid_code, direction_code)
 
+        floor_lines = self._floor_lines(image_grey, visual=odometry is None)
         update = themap.update(view.template_id, grid_code, direction_code, float(timestamp),
                                may_close_loop=may_close_loop, place=-1 if merged else place,  # the confirmed place
-                               structure=self._floor_lines(image_grey, visual=odometry is None))
+                               structure=floor_lines)
         if update.loop_closure or (not update.new_experience and self._is_old(update.experience_id, float(timestamp))):
             self._since_closure = 0.0  # on an old experience: localised in the map
         self._frame_experiences.append(update.experience_id)
@@ -229,7 +230,7 @@ class NeuroSLAM(SessionsMixin, StateMixin):
         self.frames += 1
         self.last = Estimate(float(timestamp), themap.robot_pose(), update.experience_id,
                              view.template_id, update.loop_closure, update.new_experience, view.new, motion,
-                             grid_code, direction_code, merged)
+                             grid_code, direction_code, merged, floor_lines)
         if update.loop_closure:
             logger.debug("frame %d: loop closed at experience %d", self.frames, update.experience_id)
         return self.last

@@ -13,8 +13,9 @@ import pytest
 from neuroslam import SelfMotion
 from neuroslam.errors import InvalidInputError, InvalidParameterError
 from neuroslam.estimate import Estimate
-from neuroslam.geometry import compose
+from neuroslam.geometry import compose, wrap
 from neuroslam.localisation import LocalisationConfig, Localiser, align
+from neuroslam.relaxation import quarter_wrap
 
 
 class ScriptedSLAM:
@@ -25,13 +26,15 @@ class ScriptedSLAM:
         self.sessions = []
         self.next = {}
         self.experience = 0
+        self.floor_lines = math.nan  # the floor's lines in the robot's frame, every frame unless set per frame
 
     def begin_session(self, start="unknown"):
         self.sessions.append(start)
         self.experience_map.component = 1
 
     def step(self, image, timestamp, odometry=None):
-        plan = {"pose": np.zeros(4), "loop_closure": False, "merged": False, "experience": None, **self.next}
+        plan = {"pose": np.zeros(4), "loop_closure": False, "merged": False, "experience": None,
+                "floor_lines": self.floor_lines, **self.next}
         self.next = {}
         if plan["merged"]:
             self.experience_map.component = 0
@@ -40,7 +43,7 @@ class ScriptedSLAM:
             self.experience += 1
         experience = self.experience if new else plan["experience"]
         return Estimate(float(timestamp), np.asarray(plan["pose"], dtype=float), experience, 0, plan["loop_closure"],
-                        new, False, odometry, np.zeros(3), np.zeros(2), plan["merged"])
+                        new, False, odometry, np.zeros(3), np.zeros(2), plan["merged"], plan["floor_lines"])
 
 
 IMAGE = np.zeros((8, 8), dtype=np.uint8)
@@ -174,3 +177,62 @@ def test_a_bad_start_and_an_unknown_preset_are_refused():
         Localiser(ScriptedSLAM(), np.array([0.0, 0.0, math.nan, 0.0]))
     with pytest.raises(InvalidInputError, match="odometry"):
         LocalisationConfig.preset("lidar")
+
+
+# the floor's lines -------------------------------------------------------------------------------------------
+AXIS = math.radians(10.0)  # the world's lines' direction, modulo 90°
+CURVING = SelfMotion(1.0, math.radians(0.5), 0.0)  # the wheels read a turn of 0.05° a frame; the robot drives straight
+
+
+def _lines_localiser(lines_error, orientation_noise=0.0, seed=0):
+    """A robot driving straight east (heading 0) whose wheels read a steady left turn; the floor's lines at
+    AXIS in the world, seen in its true frame with ``orientation_noise`` (rad) per frame."""
+    # the heading's uncertainty grows 1 mrad a metre: a localiser sure of its heading would take nothing
+    config = LocalisationConfig(turn_drift=0.0, heading_drift=0.001, lines_error=lines_error)
+    slam = ScriptedSLAM()
+    localiser = Localiser(slam, np.zeros(4), config)
+    rng = np.random.default_rng(seed)
+    for k in range(600):  # 60 s, 60 m
+        slam.floor_lines = float(quarter_wrap(AXIS - 0.0 + rng.normal(0.0, orientation_noise)))
+        where = localiser.step(IMAGE, 0.1 * k, odometry=CURVING)
+    return localiser, where
+
+
+def test_the_floor_lines_hold_a_drifting_heading():
+    # the wheels turn the heading 0.05° a frame (30° over 60 m); the lines, 1° of scatter a frame, fix their
+    # direction over the first 30 frames (1.5° of drift by then, so the direction is that far off) and hold the
+    # heading to it: within the reference's offset plus the lag of a metre's median
+    localiser, where = _lines_localiser(math.radians(1.0), orientation_noise=math.radians(1.0))
+    assert localiser.lines_axis == pytest.approx(AXIS, abs=math.radians(2.0))
+    assert abs(wrap(where.pose[3])) < math.radians(3.0)
+    assert localiser.lines_corrections > 50
+    assert where.heading_error >= math.radians(1.0) / math.sqrt(2) - 1e-12  # never surer than the lines allow
+    _, drifting = _lines_localiser(0.0)  # off (the default): the wheels' heading alone
+    assert wrap(drifting.pose[3]) == pytest.approx(math.radians(0.05) * 599, abs=1e-9)
+
+
+def test_lines_that_disagree_fix_no_direction_and_turn_nothing():
+    # orientations scattered over every direction: their median deviation exceeds lines_error, so no direction
+    # is fixed and the pose is the wheels' alone
+    config = LocalisationConfig(turn_drift=0.0, heading_drift=0.0, lines_error=math.radians(1.0))
+    slam = ScriptedSLAM()
+    localiser = Localiser(slam, np.zeros(4), config)
+    rng = np.random.default_rng(1)
+    for k in range(300):
+        slam.floor_lines = float(rng.uniform(-math.pi / 4, math.pi / 4))
+        where = localiser.step(IMAGE, 0.1 * k, odometry=CURVING)
+    assert localiser.lines_axis is None and localiser.lines_corrections == 0
+    assert wrap(where.pose[3]) == pytest.approx(math.radians(0.05) * 299, abs=1e-9)
+
+
+def test_a_misread_metre_beyond_the_gate_turns_nothing():
+    # once the direction is fixed, a metre of lines 20° off (a wall read as floor) is outside the gate
+    config = LocalisationConfig(turn_drift=0.0, heading_drift=0.001, lines_error=math.radians(1.0))
+    slam = ScriptedSLAM()
+    localiser = Localiser(slam, np.zeros(4), config)
+    slam.floor_lines = AXIS
+    drive(localiser, 40)  # straight, no drift: the direction is fixed at AXIS
+    assert localiser.lines_axis == pytest.approx(AXIS)
+    slam.floor_lines = AXIS + math.radians(20.0)
+    where = drive(localiser, 12, start_time=4.0)
+    assert where.pose[3] == pytest.approx(0.0, abs=1e-12)

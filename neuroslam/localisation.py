@@ -27,10 +27,11 @@ odometry it was given. :class:`Localiser` keeps one:
   error is a bias), so fusion never claims more than the measurement's own uncertainty over √2.
 - **The floor's lines hold the heading** (``lines_error`` > 0; off by default). Buildings are laid out along
   two perpendicular directions, and the floor's straight lines show them in every frame (eq. M2 of
-  :mod:`neuroslam.vision.structure`, :attr:`Estimate.floor_lines`). Over the first ``lines_reference`` frames
-  that see them, while the heading is still surer than ``lines_error``, the lines' direction in the task frame
-  is fixed (the Cauchy-weighted mean of :func:`~neuroslam.relaxation.structure_axis`, kept only where the
-  frames agree within ``lines_error``). Afterwards, every metre driven, the median of the headings the lines
+  :mod:`neuroslam.vision.structure`, :attr:`Estimate.floor_lines`). The first ``lines_reference`` frames in a
+  row that see them and agree (their median deviation within ``lines_error``) fix the lines' direction in the
+  task frame (the Cauchy-weighted mean of :func:`~neuroslam.relaxation.structure_axis`), as sure as the heading
+  was then (fixed at the start, exactly; later, the heading's drift so far stays, and only its growth
+  stops). Afterwards, every metre driven, the median of the headings the lines
   implied over that metre (the direction minus the frame's orientation, modulo 90°, nearest the prediction)
   is a measurement of the heading with ``lines_error``, through the gate, fused like a recognition's heading.
   The wheels' heading walks 9.1 mrad per root metre on the testbed (docs/testbed.md); the lines' does not.
@@ -216,6 +217,7 @@ class Localiser:
         self._rejected: dict[str, list[np.ndarray]] = {"plane": [], "height": []}  # since the last accepted
         self._last_time: float | None = None
         self.lines_axis: float | None = None  # the floor lines' direction in the task frame, rad (modulo 90°)
+        self.lines_axis_error = 0.0  # its 1σ: the heading's when it was fixed, rad
         self._lines_samples: list[float] = []  # the directions seen while fixing it
         self._lines_innovations: list[float] = []  # this metre's headings implied by the lines, less the prediction
         self._lines_travelled = 0.0  # m since the last lines' measurement
@@ -283,17 +285,18 @@ class Localiser:
         c = self.config
         direction = float(self.pose[3] + orientation)
         if self.lines_axis is None:
-            if self.sigma[2] > c.lines_error:  # the heading already knows less than the lines: too late to fix
-                return
-            self._lines_samples.append(direction)
-            samples = np.asarray(self._lines_samples[-c.lines_reference:])
+            self._lines_samples = [*self._lines_samples[1 - c.lines_reference:], direction]
+            samples = np.asarray(self._lines_samples)
             if len(samples) < c.lines_reference:
                 return
             axis = structure_axis(np.zeros(len(samples)), samples, c.lines_error)
             if float(np.median(np.abs(quarter_wrap(samples - axis)))) <= c.lines_error:
-                self.lines_axis = axis
+                # the direction is as sure as the heading was: the lines hold the heading from here on, and
+                # the heading is never surer than the direction it is held to
+                self.lines_axis, self.lines_axis_error = axis, float(self.sigma[2])
                 self._lines_travelled = 0.0
-                logger.info("floor lines' direction fixed at %.1f° from %d frames", math.degrees(axis), len(samples))
+                logger.info("floor lines' direction fixed at %.1f° (1σ %.1f°) from %d frames", math.degrees(axis),
+                            math.degrees(self.lines_axis_error), len(samples))
             return
         self._lines_innovations.append(float(quarter_wrap(self.lines_axis - direction)))
         if self._lines_travelled < 1.0:
@@ -306,7 +309,7 @@ class Localiser:
         gain = sigma**2 / (sigma**2 + noise**2)
         self.pose[3] = wrap(float(self.pose[3] + gain * innovation))
         fused = math.sqrt(sigma**2 * noise**2 / (sigma**2 + noise**2))
-        self.sigma[2] = min(sigma, max(fused, noise / math.sqrt(2)))
+        self.sigma[2] = min(sigma, max(fused, noise / math.sqrt(2), self.lines_axis_error))
         self._heading_base, self._turned, self._travelled = float(self.sigma[2]), 0.0, 0.0
         self.lines_corrections += 1
 

@@ -236,3 +236,19 @@ def test_a_misread_metre_beyond_the_gate_turns_nothing():
     slam.floor_lines = AXIS + math.radians(20.0)
     where = drive(localiser, 12, start_time=4.0)
     assert where.pose[3] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_lines_seen_late_stop_the_drift_from_there():
+    # 30 m without lines (the wheels' turn reads 15° by then), then lines: their direction is fixed where the
+    # heading then is, as unsure as the heading was, and the heading holds there instead of drifting 15° more
+    config = LocalisationConfig(turn_drift=0.0, heading_drift=0.001, lines_error=math.radians(1.0))
+    slam = ScriptedSLAM()
+    localiser = Localiser(slam, np.zeros(4), config)
+    drive(localiser, 300, motion=CURVING)
+    sigma_then = localiser.last.heading_error
+    slam.floor_lines = AXIS
+    where = drive(localiser, 300, start_time=30.0, motion=CURVING)
+    # fixed on the 30th frame with lines, 3 m later: the heading's 1σ grew 1 mrad a metre meanwhile
+    assert localiser.lines_axis_error == pytest.approx(sigma_then + 0.001 * 3.0, abs=1e-9)
+    assert abs(wrap(where.pose[3]) - math.radians(0.05) * 330) < math.radians(2.0)  # 16.5° then, held
+    assert where.heading_error >= sigma_then * 0.95

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-__all__ = ["compose", "inverse", "relative", "wrap"]
+__all__ = ["compose", "inverse", "quarter_wrap", "relative", "wrap"]
 
 _TAU = 2 * np.pi
 
@@ -33,6 +33,14 @@ def wrap(angle: np.ndarray | float) -> np.ndarray | float:
     if isinstance(angle, float | int):
         return (angle + math.pi) % _TAU - math.pi
     return (np.asarray(angle, dtype=float) + np.pi) % _TAU - np.pi
+
+
+def quarter_wrap(angle: np.ndarray | float) -> np.ndarray | float:
+    """``angle`` (rad) wrapped into [-pi/4, pi/4): the same direction modulo 90 degrees (a grid of perpendicular
+    lines looks the same turned by a quarter); a float for a float, an array for an array."""
+    if isinstance(angle, float | int):
+        return (angle + math.pi / 4) % (math.pi / 2) - math.pi / 4
+    return (np.asarray(angle, dtype=float) + np.pi / 4) % (np.pi / 2) - np.pi / 4
 
 
 def compose(pose: np.ndarray, relative: np.ndarray) -> np.ndarray:

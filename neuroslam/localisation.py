@@ -58,8 +58,8 @@ from .config.checks import non_negative, positive, require
 from .errors import InvalidInputError
 from .estimate import Estimate
 from .evaluation.registration import fit_yaw_translation, transform_points
-from .geometry import compose, inverse, wrap
-from .relaxation import quarter_wrap, structure_axis
+from .geometry import compose, inverse, quarter_wrap, wrap
+from .relaxation import structure_axis
 from .slam import NeuroSLAM
 from .vision.odometry import SelfMotion
 
@@ -93,7 +93,7 @@ class LocalisationConfig:
         lines_error: 1σ of the heading the floor's straight lines give over a metre of driving, rad; 0 leaves
             them out (the default). About 1°: their direction scatters 0.15–0.4° a frame in the median on
             marked floors, and a misread stretch (a wall's foot) is off by a few degrees.
-        lines_reference: frames seeing lines that fix their direction in the task frame at the start.
+        lines_reference: frames in a row seeing lines that agree, which fix their direction in the task frame.
 
     Presets (:meth:`preset`): ``wheel`` for wheel encoders (``distance_drift`` 0.02: the testbed's and a
     typical encoder's relative error, taken as if systematic; 0.005 rad per square root of the radians

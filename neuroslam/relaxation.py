@@ -15,9 +15,9 @@ import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
-from .geometry import wrap
+from .geometry import quarter_wrap, wrap
 
-__all__ = ["StructureTerms", "quarter_wrap", "relax_passes", "solve_least_squares", "structure_axis"]
+__all__ = ["StructureTerms", "relax_passes", "solve_least_squares", "structure_axis"]
 
 SETTLED = 1e-4  # m or rad: relaxation stops once no experience moves more than this in a pass
 LEAST_SQUARES_ITERATIONS = 3  # Gauss–Newton iterations at most per call; an unfinished solve goes on next call
@@ -44,11 +44,6 @@ class StructureTerms:
     orientations: np.ndarray
     weight: float
     tolerance: float
-
-
-def quarter_wrap(angle: np.ndarray | float) -> np.ndarray:
-    """Angles wrapped to [-pi/4, pi/4), rad: the same direction modulo 90 degrees."""
-    return (np.asarray(angle) + np.pi / 4) % (np.pi / 2) - np.pi / 4
 
 
 STRUCTURE_AXIS_ITERATIONS = 5  # reweightings of structure_axis's mean

@@ -13,9 +13,8 @@ import pytest
 from neuroslam import SelfMotion
 from neuroslam.errors import InvalidInputError, InvalidParameterError
 from neuroslam.estimate import Estimate
-from neuroslam.geometry import compose, wrap
+from neuroslam.geometry import compose, quarter_wrap, wrap
 from neuroslam.localisation import LocalisationConfig, Localiser, align
-from neuroslam.relaxation import quarter_wrap
 
 
 class ScriptedSLAM:

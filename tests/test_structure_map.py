@@ -8,7 +8,8 @@ import pytest
 from neuroslam.config import ExperienceMapConfig
 from neuroslam.errors import InvalidParameterError
 from neuroslam.experience_map import ExperienceMap
-from neuroslam.relaxation import StructureTerms, quarter_wrap, solve_least_squares, structure_axis
+from neuroslam.geometry import quarter_wrap
+from neuroslam.relaxation import StructureTerms, solve_least_squares, structure_axis
 
 
 def _drifting_walk(seed: int, steps: int = 400, step: float = 0.5, drift: float = 0.009):

@@ -127,7 +127,6 @@ class ExperienceMapConfig:
                  "must be an integer from 1 to 100")
         positive(path, confirmation_tolerance=self.confirmation_tolerance, closure_weight=self.closure_weight,
                  structure_tolerance=self.structure_tolerance, structure_interval=self.structure_interval)
-        non_negative(path, structure_weight=self.structure_weight)
-        non_negative(path, confirmation_age=self.confirmation_age, confirmation_drift=self.confirmation_drift,
-                      confirmation_climb_error=self.confirmation_climb_error,
-                      confirmation_spacing=self.confirmation_spacing, confirmation_turn=self.confirmation_turn)
+        non_negative(path, structure_weight=self.structure_weight, confirmation_age=self.confirmation_age,
+                     confirmation_drift=self.confirmation_drift, confirmation_climb_error=self.confirmation_climb_error,
+                     confirmation_spacing=self.confirmation_spacing, confirmation_turn=self.confirmation_turn)

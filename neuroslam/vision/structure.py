@@ -49,12 +49,9 @@ from collections import deque
 
 import numpy as np
 
+from ..geometry import quarter_wrap
+
 __all__ = ["StructureHeading"]
-
-
-def _wrap_quarter(angle: float) -> float:
-    """An angle wrapped to [-pi/4, pi/4), rad: the same direction modulo 90 degrees."""
-    return (angle + math.pi / 4) % (math.pi / 2) - math.pi / 4
 
 
 class StructureHeading:
@@ -142,7 +139,7 @@ class StructureHeading:
         self.orientation = (phi, strength)
         if strength < self.strength:
             return yaw_change
-        structure = _wrap_quarter(phi + self.heading)
+        structure = quarter_wrap(phi + self.heading)
         recent = self._recent
         if self.reference is None:  # the first window that agrees fixes the reference
             recent.append(structure)
@@ -151,7 +148,7 @@ class StructureHeading:
                 self.reference = middle
                 recent.clear()
             return yaw_change
-        recent.append(_wrap_quarter(self.reference - structure) + self._shift)
+        recent.append(quarter_wrap(self.reference - structure) + self._shift)
         middle = self._agreed()
         if middle is None or len(recent) < recent.maxlen // 2:
             return yaw_change

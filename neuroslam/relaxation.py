@@ -66,7 +66,8 @@ def structure_axis(yaws: np.ndarray, orientations: np.ndarray, tolerance: float 
 
 
 def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndarray, link_poses: np.ndarray,
-                        weights: np.ndarray, structure: StructureTerms | None = None) -> tuple[np.ndarray, bool]:
+                        weights: np.ndarray, structure: StructureTerms | None = None,
+                        length_weights: np.ndarray | None = None) -> tuple[np.ndarray, bool]:
     """The least-squares map of NeuroSLAM eq. 25's link errors, found by Gauss–Newton on the sparse link graph.
 
     NeuroSLAM eq. 25 moves every experience by a fraction of its links' errors per pass, reducing the sum of
@@ -83,6 +84,16 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
 
     linearised (including the dependence of r_xy on the source's yaw), and the normal equations
     solved by a sparse LU, the first experience held fixed.
+
+    With ``length_weights`` (eq. M5, not in the NeuroSLAM paper), a link whose length is less sure than its
+    direction (the camera was blind in distance on some of its frames) weighs its error along its direction of
+    travel u = (cos, sin)(yaw_source + heading) by its length weight l and across it by its weight w: r_xy
+    weighted by sqrt(l), plus one row across,
+
+        r_across = sqrt(w − l) · v · (p_source − p_target),   v = (−sin, cos)(yaw_source + heading)      (M5)
+
+    (v · u = 0, so the link's distance drops out), which makes the squared error l · along² + w · across².
+    A loop closure then stretches the links whose length nobody saw, not the ones the floor measured.
 
     With ``structure`` (eq. M4, not in the NeuroSLAM paper), each experience that saw the floor's straight
     lines adds a residual on its yaw: buildings are built along two perpendicular directions, so the lines'
@@ -105,30 +116,69 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
             the target's yaw relative to the source's) and height change (m).
         weights: (L,) each link's weight.
         structure: eq. M4's observations, or None (then the solve is the links' alone).
+        length_weights: (L,) each link's weight along its direction of travel (eq. M5), at most its weight;
+            None: the same as ``weights``.
 
     Returns (poses (n, 4) after the iterations, settled: whether the solve converged).
     """
-    if structure is not None and len(structure.experiences):
-        return _solve_with_structure(poses, sources, targets, link_poses, weights, structure)
     n = len(poses)
     count = len(sources)
     root_weight = np.sqrt(weights)
+    # eq. M5: the links whose length weighs less than their direction, each with one row across
+    length_weights = weights if length_weights is None else np.minimum(length_weights, weights)
+    across = np.flatnonzero(length_weights < weights)
+    root_length = np.sqrt(length_weights)
+    root_across = np.sqrt(weights[across] - length_weights[across])
+    across_rows = 4 * count + np.arange(len(across))
+    # eq. M4: psi is the last variable
+    with_structure = structure is not None and len(structure.experiences) > 0
+    if with_structure:
+        seen, orientations = np.asarray(structure.experiences, dtype=np.int64), np.asarray(structure.orientations)
+        axis = structure_axis(poses[seen, 3], orientations, structure.tolerance)
+        start = quarter_wrap(poses[seen, 3] + orientations - axis)
+        root_structure = np.sqrt(structure.weight / (1 + (start / structure.tolerance) ** 2))
+        structure_rows = 4 * count + len(across) + np.arange(len(seen))
+    else:
+        axis = 0.0
+    variables = 4 * n + int(with_structure)
 
-    def residual_at(poses: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        blocks, cos, sin = _link_residuals(poses, sources, targets, link_poses, root_weight)
-        return np.concatenate(blocks), cos, sin
+    def residual_at(poses: np.ndarray, axis: float) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+        blocks, cos, sin = _link_residuals(poses, sources, targets, link_poses, root_weight, root_length)
+        direction = poses[sources[across], 3] + link_poses[across, 1]
+        across_cos, across_sin = np.cos(direction), np.sin(direction)
+        apart_x = poses[sources[across], 0] - poses[targets[across], 0]
+        apart_y = poses[sources[across], 1] - poses[targets[across], 1]
+        blocks.append((across_cos * apart_y - across_sin * apart_x) * root_across)
+        if with_structure:
+            blocks.append(quarter_wrap(poses[seen, 3] + orientations - axis) * root_structure)
+        return np.concatenate(blocks), (cos, sin, across_cos, across_sin, apart_x, apart_y)
 
-    residual, cos, sin = residual_at(poses)
-    cost = float(residual @ residual)
-    for _ in range(LEAST_SQUARES_ITERATIONS):
-        # Jacobian: residual block a (x, y, z, yaw) against the source's and target's variables
-        jacobian_rows, columns, values = _link_jacobian(sources, targets, cos, sin, root_weight)
+    def jacobian_at(parts: tuple[np.ndarray, ...]) -> scipy.sparse.csc_matrix:
+        cos, sin, across_cos, across_sin, apart_x, apart_y = parts
+        rows, columns, values = _link_jacobian(sources, targets, cos, sin, root_weight, root_length)
+        # d r_across / d(x_s, y_s, x_t, y_t, yaw_s) = (−sin, cos, sin, −cos, −u · (p_s − p_t)) · sqrt(w − l)
+        source, target = sources[across], targets[across]
+        rows = [rows, np.tile(across_rows, 5)]
+        columns = [columns, np.concatenate([4 * source, 4 * source + 1, 4 * target, 4 * target + 1, 4 * source + 3])]
+        values = [values, np.concatenate([-across_sin, across_cos, across_sin, -across_cos,
+                                          -(across_cos * apart_x + across_sin * apart_y)]) * np.tile(root_across, 5)]
+        if with_structure:
+            rows += [structure_rows, structure_rows]
+            columns += [4 * seen + 3, np.full(len(seen), 4 * n)]
+            values += [root_structure, -root_structure]
         # the first experience stays where it is: its columns leave the system (a stiff prior on it
         # instead would make the normal equations too ill-conditioned to solve on long chains)
-        jacobian = scipy.sparse.csc_matrix((values, (jacobian_rows, columns)), shape=(4 * count, 4 * n))[:, 4:]
+        return scipy.sparse.csc_matrix((np.concatenate(values), (np.concatenate(rows), np.concatenate(columns))),
+                                       shape=(len(residual), variables))[:, 4:]
+
+    residual, parts = residual_at(poses, axis)
+    cost = float(residual @ residual)
+    for _ in range(LEAST_SQUARES_ITERATIONS):
+        jacobian = jacobian_at(parts)
         normal = (jacobian.T @ jacobian).tocsc()
         factor = scipy.sparse.linalg.splu(normal)  # COLAMD ordering: about 2x faster than spsolve's here
-        step = factor.solve(-(jacobian.T @ residual)).reshape(n - 1, 4)
+        full_step = factor.solve(-(jacobian.T @ residual))
+        step, axis_step = full_step[: 4 * (n - 1)].reshape(n - 1, 4), float(full_step[4 * (n - 1):].sum())
         # backtracking: a full step can overshoot where the links disagree grossly (the yaw coupling is
         # far from linear), so the step is halved until the total squared link error does not rise
         scale = 1.0
@@ -136,34 +186,37 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
             trial = poses.copy()
             trial[1:] += scale * step
             trial[:, 3] = wrap(trial[:, 3])
-            trial_residual, trial_cos, trial_sin = residual_at(trial)
+            trial_axis = axis + scale * axis_step
+            trial_residual, trial_parts = residual_at(trial, trial_axis)
             trial_cost = float(trial_residual @ trial_residual)
             if trial_cost <= cost:
                 break
             scale /= 2
         else:  # no descent along the Gauss–Newton direction: a minimum, up to round-off
             return poses, True
-        poses, residual, cos, sin, cost = trial, trial_residual, trial_cos, trial_sin, trial_cost
-        if len(step) == 0 or np.abs(step).max() < LEAST_SQUARES_SETTLED:  # the full step, not a halved one
+        poses, axis, residual, parts, cost = trial, trial_axis, trial_residual, trial_parts, trial_cost
+        if len(full_step) == 0 or np.abs(full_step).max() < LEAST_SQUARES_SETTLED:  # the full step, not a halved one
             return poses, True
     return poses, False
 
 
 def _link_residuals(poses: np.ndarray, sources: np.ndarray, targets: np.ndarray, link_poses: np.ndarray,
-                    root_weight: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+                    root_weight: np.ndarray,
+                    root_length: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
     """The links' weighted residuals (x, y, z, yaw blocks) at ``poses``, and each link's rotated distance
-    (cos, sin parts) for the Jacobian."""
+    (cos, sin parts) for the Jacobian. The x and y blocks weigh by ``root_length`` (eq. M5), z and yaw by
+    ``root_weight``."""
     distance, heading, facing, height = link_poses.T
     direction = poses[sources, 3] + heading
     cos, sin = distance * np.cos(direction), distance * np.sin(direction)
-    return [(poses[sources, 0] + cos - poses[targets, 0]) * root_weight,
-            (poses[sources, 1] + sin - poses[targets, 1]) * root_weight,
+    return [(poses[sources, 0] + cos - poses[targets, 0]) * root_length,
+            (poses[sources, 1] + sin - poses[targets, 1]) * root_length,
             (poses[sources, 2] + height - poses[targets, 2]) * root_weight,
             wrap(poses[sources, 3] + facing - poses[targets, 3]) * root_weight], cos, sin
 
 
 def _link_jacobian(sources: np.ndarray, targets: np.ndarray, cos: np.ndarray, sin: np.ndarray,
-                   root_weight: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                   root_weight: np.ndarray, root_length: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The link residuals' Jacobian entries (rows, columns, values) over the 4 n pose variables."""
     count = len(sources)
     rows = np.arange(count)
@@ -172,55 +225,9 @@ def _link_jacobian(sources: np.ndarray, targets: np.ndarray, cos: np.ndarray, si
                                     rows + 2 * count, rows + 2 * count, rows + 3 * count, rows + 3 * count])
     columns = np.concatenate([4 * sources, 4 * targets, 4 * sources + 3, 4 * sources + 1, 4 * targets + 1,
                               4 * sources + 3, 4 * sources + 2, 4 * targets + 2, 4 * sources + 3, 4 * targets + 3])
-    values = np.concatenate([ones, -ones, -sin, ones, -ones, cos, ones, -ones, ones, -ones]) * np.tile(root_weight, 10)
+    values = (np.concatenate([ones, -ones, -sin, ones, -ones, cos, ones, -ones, ones, -ones])
+              * np.concatenate([np.tile(root_length, 6), np.tile(root_weight, 4)]))
     return jacobian_rows, columns, values
-
-
-def _solve_with_structure(poses: np.ndarray, sources: np.ndarray, targets: np.ndarray, link_poses: np.ndarray,
-                          weights: np.ndarray, structure: StructureTerms) -> tuple[np.ndarray, bool]:
-    """:func:`solve_least_squares` with eq. M4's residuals: the same Gauss–Newton steps, halvings and
-    settling, over the poses and psi."""
-    n = len(poses)
-    count = len(sources)
-    root_weight = np.sqrt(weights)
-    seen, orientations = np.asarray(structure.experiences, dtype=np.int64), np.asarray(structure.orientations)
-    axis = structure_axis(poses[seen, 3], orientations, structure.tolerance)
-    start = quarter_wrap(poses[seen, 3] + orientations - axis)
-    root_structure = np.sqrt(structure.weight / (1 + (start / structure.tolerance) ** 2))
-    structure_rows = 4 * count + np.arange(len(seen))
-
-    def residual_at(poses: np.ndarray, axis: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        blocks, cos, sin = _link_residuals(poses, sources, targets, link_poses, root_weight)
-        return np.concatenate([*blocks, quarter_wrap(poses[seen, 3] + orientations - axis) * root_structure]), cos, sin
-
-    residual, cos, sin = residual_at(poses, axis)
-    cost = float(residual @ residual)
-    for _ in range(LEAST_SQUARES_ITERATIONS):
-        rows, columns, values = _link_jacobian(sources, targets, cos, sin, root_weight)
-        rows = np.concatenate([rows, structure_rows, structure_rows])
-        columns = np.concatenate([columns, 4 * seen + 3, np.full(len(seen), 4 * n)])  # psi: the last column
-        values = np.concatenate([values, root_structure, -root_structure])
-        jacobian = scipy.sparse.csc_matrix((values, (rows, columns)), shape=(len(residual), 4 * n + 1))[:, 4:]
-        normal = (jacobian.T @ jacobian).tocsc()
-        full_step = scipy.sparse.linalg.splu(normal).solve(-(jacobian.T @ residual))
-        step, axis_step = full_step[:-1].reshape(n - 1, 4), float(full_step[-1])
-        scale = 1.0
-        for _halving in range(LEAST_SQUARES_HALVINGS):
-            trial = poses.copy()
-            trial[1:] += scale * step
-            trial[:, 3] = wrap(trial[:, 3])
-            trial_axis = axis + scale * axis_step
-            trial_residual, trial_cos, trial_sin = residual_at(trial, trial_axis)
-            trial_cost = float(trial_residual @ trial_residual)
-            if trial_cost <= cost:
-                break
-            scale /= 2
-        else:
-            return poses, True
-        poses, axis, residual, cos, sin, cost = trial, trial_axis, trial_residual, trial_cos, trial_sin, trial_cost
-        if np.abs(full_step).max() < LEAST_SQUARES_SETTLED:
-            return poses, True
-    return poses, False
 
 
 def relax_passes(poses: np.ndarray, sources: np.ndarray, targets: np.ndarray, link_poses: np.ndarray,

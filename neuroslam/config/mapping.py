@@ -72,6 +72,16 @@ class ExperienceMapConfig:
         structure_interval: m driven between the solves eq. M4 starts (a loop closure starts its own). 10 m:
             the wheels' heading walks about 1.7° in that distance (9.1 mrad per root metre, docs/testbed.md),
             within ``structure_tolerance``, so the new experiences' lines are not yet weighed down as misread.
+        blind_distance_variance: how many times the variance of a frame's distance where nothing observed it
+            (the visual odometry held the last speed or read none) exceeds the variance where a cue saw it.
+            A link weighs its length by its weight / (1 + (this − 1) × its share of blind frames) and its
+            direction by its weight (eq. M5 of :mod:`neuroslam.relaxation`): a loop closure stretches the
+            stretches nobody measured. 1: every length alike (the paper's map). 200: where the floor reads the
+            distance within about 4 %, the blind frames of the twelfth step of docs/generalization.md read it
+            off by about 40 % while a speed is held and by 100 % past ``odometry.blind_hold`` (three held frames
+            to one past it): a root mean square of 0.6, and (0.6 / 0.04)² ≈ 225, rounded down.
+            Only with ``relaxation = "least-squares"``; a source that does not say what it observed (wheels,
+            the paper's profile odometry) is never blind.
     """
 
     view_weight: float = 10.0
@@ -96,6 +106,7 @@ class ExperienceMapConfig:
     structure_weight: float = 0.01
     structure_tolerance: float = math.radians(2.0)
     structure_interval: float = 10.0
+    blind_distance_variance: float = 200.0
 
     def __post_init__(self) -> None:
         self.validate()
@@ -130,3 +141,6 @@ class ExperienceMapConfig:
         non_negative(path, structure_weight=self.structure_weight, confirmation_age=self.confirmation_age,
                      confirmation_drift=self.confirmation_drift, confirmation_climb_error=self.confirmation_climb_error,
                      confirmation_spacing=self.confirmation_spacing, confirmation_turn=self.confirmation_turn)
+        require(f"{path}.blind_distance_variance", self.blind_distance_variance,
+                number(self.blind_distance_variance) and self.blind_distance_variance >= 1,
+                "must be a finite number of at least 1")

@@ -74,15 +74,14 @@ class ExperienceMap(MapSessionsMixin):
         self._link_poses = GrowingArray(4, np.float64)  # distance, heading, facing, height change
         self._link_times = GrowingArray(0, np.float64)
         self._link_weights = GrowingArray(0, np.float64)  # of each link's errors in the least-squares map
-        self._link_blind = GrowingArray(0, np.float64)  # each link's share of frames blind in distance (eq. M5)
+        self._link_blind = GrowingArray(0, np.float64)  # each link's seconds blind in distance (eq. M5)
         self._degree = GrowingArray(0, np.int64)
         self._components = GrowingArray(0, np.int64)  # which connected map each experience belongs to
         self._sessions = GrowingArray(0, np.int64)  # which session made each experience
         self._odometers = GrowingArray(0, np.float64)  # the session's path length when each experience was made, m
         self._structure = GrowingArray(0, np.float64)  # the floor lines' orientation when each was made (eq. M4), rad
         self._structure_odometer = 0.0  # m, the odometer when eq. M4 last started a solve
-        self._frames_since = 0  # frames integrated since the current experience (eq. M5)
-        self._blind_since = 0  # of them, frames whose distance nothing observed
+        self._blind_since = 0.0  # s since the current experience whose distance nothing observed (eq. M5)
         self._linked: set[tuple[int, int]] = set()
         self._by_template: dict[int, list[int]] = {}
         self._settled = True
@@ -152,18 +151,20 @@ class ExperienceMap(MapSessionsMixin):
         return self._link_weights.view
 
     @property
-    def link_blind_shares(self) -> np.ndarray:
-        """(L,) the share of each link's frames on which nothing observed the distance (the visual odometry held
-        it or read none; 0 for a link made before this was kept). With ``blind_distance_variance`` such a link's
-        length weighs less than its direction in the least-squares map (eq. M5 of :mod:`neuroslam.relaxation`)."""
+    def link_blind_times(self) -> np.ndarray:
+        """(L,) seconds of each link on which nothing observed the distance (the visual odometry held it or read
+        none; 0 for a link made before this was kept). Such a link's length weighs less than its direction in
+        the least-squares map (eq. M5 of :mod:`neuroslam.relaxation`, :meth:`length_weights`)."""
         return self._link_blind.view
 
     def length_weights(self) -> np.ndarray:
         """(L,) each link's weight along its direction of travel in the least-squares map (eq. M5): its weight
-        divided by 1 + (``blind_distance_variance`` − 1) × its blind share, the variance of a link whose frames
-        are a mix of observed and blind distances relative to one whose distance was all observed."""
-        ratio = self.config.blind_distance_variance
-        return self.link_weights / (1 + (ratio - 1) * self.link_blind_shares)
+        times s² / (s² + (b t)²), s = ``link_length_error`` (m, a link's length where its distance was seen),
+        b = ``blind_speed_error`` (m/s), t its seconds blind: the unseen distance's error grows with the time
+        nothing saw it (a held speed, then none, is the same error every frame, so they add up)."""
+        config = self.config
+        return self.link_weights / (1 + (config.blind_speed_error * self.link_blind_times
+                                         / config.link_length_error) ** 2)
 
     @property
     def odometers(self) -> np.ndarray:
@@ -194,7 +195,7 @@ class ExperienceMap(MapSessionsMixin):
                      loop_closures=np.int64(self.loop_closures), component=np.int64(self.component),
                      session=np.int64(self.session), odometer=np.float64(self.odometer),
                      structure_odometer=np.float64(self._structure_odometer),
-                     frames_since=np.int64(self._frames_since), blind_since=np.int64(self._blind_since))
+                     blind_since=np.float64(self._blind_since))
         return state
 
     def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
@@ -203,7 +204,7 @@ class ExperienceMap(MapSessionsMixin):
         for name, (attribute, columns, dtype) in STATE_ARRAYS.items():
             if name == "link_weights" and name not in state and "links" in state:
                 rows = np.ones(len(state["links"]))  # a map saved before links had weights: all alike
-            elif name == "link_blind_shares" and name not in state and "links" in state:
+            elif name == "link_blind_times" and name not in state and "links" in state:
                 rows = np.zeros(len(state["links"]))  # a map saved before eq. M5: every length observed
             elif name == "odometers" and name not in state and "poses" in state:
                 rows = np.full(len(state["poses"]), -np.inf)  # a map saved before odometers were kept
@@ -242,8 +243,7 @@ class ExperienceMap(MapSessionsMixin):
         self.session = int(state["session"])
         self.odometer = float(state.get("odometer", 0.0))
         self._structure_odometer = float(state.get("structure_odometer", self.odometer))
-        self._frames_since = int(state.get("frames_since", 0))
-        self._blind_since = int(state.get("blind_since", 0))
+        self._blind_since = float(state.get("blind_since", 0.0))
 
     def robot_pose(self) -> np.ndarray:
         """The robot's pose in the map: the current experience composed with the odometry since it."""
@@ -266,16 +266,15 @@ class ExperienceMap(MapSessionsMixin):
 
     # per frame ----------------------------------------------------------------------------------------
     def integrate(self, distance: float, yaw_change: float, height_change: float, drift: float = 0.0, *,
-                  blind_distance: bool = False) -> None:
+                  blind_time: float = 0.0) -> None:
         """Add one frame of self-motion (m, rad, m) to the odometry since the current experience; ``drift``
         (rad) turns the direction of travel off the heading (the grid network's read-out, grid-network eq. 5);
-        ``blind_distance``: nothing observed this frame's distance (it was held or is zero), counted for the
-        link the odometry will make (eq. M5)."""
+        ``blind_time``: s of this frame on which nothing observed the distance (it was held or is zero; the
+        frame's interval or 0), counted for the link the odometry will make (eq. M5)."""
         heading = self.relative[3] + yaw_change / 2 + drift
         self.relative += [distance * math.cos(heading), distance * math.sin(heading), height_change, yaw_change]
         self.odometer += abs(distance)
-        self._frames_since += 1
-        self._blind_since += bool(blind_distance)
+        self._blind_since += blind_time
 
     def scores(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray) -> np.ndarray:
         """NeuroSLAM eq. 22 against every experience: weighted view mismatch plus wrapped code distances (cells)."""
@@ -374,9 +373,8 @@ class ExperienceMap(MapSessionsMixin):
         return MapUpdate(best, False, closes_loop)
 
     def _restart_link(self) -> None:
-        """The odometry starts again from the current experience: no frames counted for eq. M5 yet."""
-        self._frames_since = 0
-        self._blind_since = 0
+        """The odometry starts again from the current experience: no blind seconds counted for eq. M5 yet."""
+        self._blind_since = 0.0
 
     def _on_the_spot(self, experience: int) -> bool:
         """The robot has driven less than ``confirmation_tolerance`` since it made ``experience`` (in this
@@ -429,7 +427,7 @@ class ExperienceMap(MapSessionsMixin):
         # seconds on the session's clock; a link from an experience of an earlier session records 0
         self._link_times.append(time - self.creation_times[source] if self.sessions[source] == self.session else 0.0)
         self._link_weights.append(weight)
-        self._link_blind.append(self._blind_since / self._frames_since if self._frames_since else 0.0)
+        self._link_blind.append(self._blind_since)
         self._degree.data[source] += 1
         self._degree.data[target] += 1
         self._linked.add((source, target))

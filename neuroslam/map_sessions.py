@@ -27,7 +27,7 @@ STATE_ARRAYS = {
     "direction_codes": ("_direction_codes", 2, np.float64), "template_ids": ("_templates", 0, np.int64),
     "creation_times": ("_times", 0, np.float64), "links": ("_links", 2, np.int64),
     "link_poses": ("_link_poses", 4, np.float64), "link_times": ("_link_times", 0, np.float64),
-    "link_weights": ("_link_weights", 0, np.float64), "link_blind_shares": ("_link_blind", 0, np.float64),
+    "link_weights": ("_link_weights", 0, np.float64), "link_blind_times": ("_link_blind", 0, np.float64),
     "degree": ("_degree", 0, np.int64), "components": ("_components", 0, np.int64),
     "sessions": ("_sessions", 0, np.int64), "odometers": ("_odometers", 0, np.float64),
     "structure_orientations": ("_structure", 0, np.float64),
@@ -102,7 +102,7 @@ class MapSessionsMixin:
         joined = links[:, 0] != links[:, 1]
         for name, (attribute, columns, dtype) in STATE_ARRAYS.items():
             rows = getattr(self, attribute).view
-            if name in ("links", "link_poses", "link_times", "link_weights", "link_blind_shares"):
+            if name in ("links", "link_poses", "link_times", "link_weights", "link_blind_times"):
                 rows = (links if name == "links" else rows)[joined]
             elif name != "degree":
                 rows = rows[keep]

@@ -195,9 +195,9 @@ class NeuroSLAM(SessionsMixin, StateMixin):
         middle = yaw + yaw_change / 2 + drift
         self._odometry_pose = np.array([x + distance * math.cos(middle), y + distance * math.sin(middle), z + climb,
                                         wrap(float(yaw + yaw_change))])
-        blind_distance = motion.observed is not None and motion.observed.blind[0]
+        blind_time = dt if motion.observed is not None and motion.observed.blind[0] else 0.0
         # the robot's pose in the map includes this frame's motion
-        themap.integrate(distance, yaw_change, climb, drift, blind_distance=blind_distance)
+        themap.integrate(distance, yaw_change, climb, drift, blind_time=blind_time)
         may_close_loop, merged, place = True, False, -1
         self._since_closure += distance
         entry = (self._odometry_pose, view.template_id,

@@ -56,18 +56,18 @@ def _side_length(poses, side):
 def test_a_blind_side_takes_the_loop_error_and_the_measured_sides_keep_their_length():
     """The square's third side reads 3 m of its 10 m, so the loop ends 7 m short. Weighed alike, the
     least-squares map (which trades 1 rad² of yaw against 1 m² of position) puts the 7 m into bending the
-    headings (by up to 35°) and leaves the side at 3.07 m. With eq. M5 (its links' lengths 200 times less
-    sure: the default ``blind_distance_variance``) the blind side stretches to 8.18 m, the measured sides
-    keep their 10 m within 4 cm, and the headings bend by at most 9° (eq. M4's lines, not used here, hold
-    them further)."""
+    headings (by up to 35°) and leaves the side at 3.07 m. With eq. M5, each blind link 1 s blind (its length
+    weighing 1 / (1 + (0.6 × 1 / 0.03)²) = 1/401: the default ``blind_speed_error`` and ``link_length_error``),
+    the blind side stretches to 8.96 m, the measured sides keep their 10 m within 2 cm, and the headings bend
+    by at most 5° (eq. M4's lines, not used here, hold them further)."""
     poses, sources, targets, link_poses, blind = _square()
     weights = np.ones(len(sources))
-    solved = _solve(poses, sources, targets, link_poses, weights, np.where(blind, 1 / 200, 1.0))
+    solved = _solve(poses, sources, targets, link_poses, weights, np.where(blind, 1 / 401, 1.0))
     alike = _solve(poses, sources, targets, link_poses, weights)
-    assert _side_length(solved, 2) == pytest.approx(8.18, abs=0.05)
+    assert _side_length(solved, 2) == pytest.approx(8.96, abs=0.05)
     for side in (0, 1, 3):
-        assert _side_length(solved, side) == pytest.approx(SIDE, abs=0.04)
-    assert np.degrees(np.abs(quarter_wrap(solved[:, 3]))).max() < 9.5
+        assert _side_length(solved, side) == pytest.approx(SIDE, abs=0.03)
+    assert np.degrees(np.abs(quarter_wrap(solved[:, 3]))).max() < 5.5
     assert _side_length(alike, 2) == pytest.approx(3.07, abs=0.05)
     assert np.degrees(np.abs(quarter_wrap(alike[:, 3]))).max() > 30
 
@@ -80,10 +80,10 @@ def test_length_weights_equal_to_the_weights_change_nothing():
     assert np.array_equal(once, same)
 
 
-def _driven_map(variance: float) -> ExperienceMap:
+def _driven_map(blind_speed_error: float) -> ExperienceMap:
     """The square driven through an ExperienceMap, 5 frames a link, the third side's frames blind in
     distance (each reads 0.06 m of the true 0.2 m), then the loop closed at the first experience."""
-    config = ExperienceMapConfig(threshold=0.5, blind_distance_variance=variance, structure_weight=0.0)
+    config = ExperienceMapConfig(threshold=0.5, blind_speed_error=blind_speed_error, structure_weight=0.0)
     experience_map = ExperienceMap(config, grid_size=(200, 200, 200))
     experience_map.update(0, np.zeros(3), np.zeros(2), 0.0)
     x = y = yaw = 0.0
@@ -93,7 +93,7 @@ def _driven_map(variance: float) -> ExperienceMap:
             blind = side == 2
             for _frame in range(5):
                 reading = 0.2 * (BLIND_READING if blind else 1.0)
-                experience_map.integrate(reading, 0.0, 0.0, blind_distance=blind)
+                experience_map.integrate(reading, 0.0, 0.0, blind_time=0.1 if blind else 0.0)
                 x, y = x + reading * math.cos(yaw), y + reading * math.sin(yaw)
                 time += 0.1
             if step == SIDE - 1:
@@ -111,33 +111,33 @@ def _driven_map(variance: float) -> ExperienceMap:
     return experience_map
 
 
-def test_the_map_counts_each_links_blind_frames_and_weighs_its_length_by_them():
-    driven = _driven_map(200.0)
-    shares = driven.link_blind_shares
-    assert len(shares) == len(driven.links) == 4 * SIDE
-    # the third side's links: every frame blind, but the last counted its corner's turning frame too
-    assert shares[2 * SIDE: 3 * SIDE].tolist() == pytest.approx([1.0] * (SIDE - 1) + [5 / 6])
-    assert np.all(shares[: 2 * SIDE] == 0) and np.all(shares[3 * SIDE:] == 0)
-    assert driven.length_weights()[2 * SIDE: 3 * SIDE] == pytest.approx([1 / 200] * (SIDE - 1)
-                                                                       + [1 / (1 + 199 * 5 / 6)])
+def test_the_map_counts_each_links_blind_seconds_and_weighs_its_length_by_them():
+    driven = _driven_map(0.6)
+    blind_times = driven.link_blind_times
+    assert len(blind_times) == len(driven.links) == 4 * SIDE
+    # the third side's links: five frames of 0.1 s each, all blind (the corner's turn was not)
+    assert blind_times[2 * SIDE: 3 * SIDE] == pytest.approx([0.5] * SIDE)
+    assert np.all(blind_times[: 2 * SIDE] == 0) and np.all(blind_times[3 * SIDE:] == 0)
+    assert driven.length_weights()[2 * SIDE: 3 * SIDE] == pytest.approx([1 / (1 + (0.6 * 0.5 / 0.03) ** 2)] * SIDE)
     assert driven.settled
     poses = driven.poses
-    alike = _driven_map(1.0).poses
-    # as the square of links above: 7.90 m against 3.06 m (the closure's link weighs ``closure_weight``
-    # here, not 1, and the blind side's last link saw its corner's turn)
-    assert _side_length(poses, 2) == pytest.approx(7.90, abs=0.05)
+    alike = _driven_map(0.0).poses
+    # 6.83 m against 3.06 m: the blind links weigh 1/101 here (0.5 s each), the closure's link 0.1
+    assert _side_length(poses, 2) == pytest.approx(6.83, abs=0.05)
     assert _side_length(alike, 2) == pytest.approx(3.06, abs=0.05)
-    # saved and loaded, the shares travel with the map; a map saved before them loads every length seen
+    # saved and loaded, the blind seconds travel with the map; a map saved before them loads every length seen
     state = driven.state_dict()
     loaded = ExperienceMap(driven.config, grid_size=(200, 200, 200))
     loaded.load_state_dict(state)
-    assert loaded.link_blind_shares.tolist() == shares.tolist()
-    old = {name: value for name, value in state.items() if name != "link_blind_shares"}
+    assert loaded.link_blind_times.tolist() == blind_times.tolist()
+    old = {name: value for name, value in state.items() if name != "link_blind_times"}
     loaded.load_state_dict(old)
-    assert loaded.link_blind_shares.tolist() == [0.0] * len(shares)
+    assert loaded.link_blind_times.tolist() == [0.0] * len(blind_times)
 
 
-@pytest.mark.parametrize("value", [0.5, -1.0, math.inf, math.nan, True])
-def test_blind_distance_variance_below_one_is_refused(value):
-    with pytest.raises(InvalidParameterError, match="blind_distance_variance"):
-        ExperienceMapConfig(blind_distance_variance=value)
+@pytest.mark.parametrize(("name", "value"), [("blind_speed_error", -0.1), ("blind_speed_error", math.inf),
+                                             ("blind_speed_error", math.nan), ("blind_speed_error", True),
+                                             ("link_length_error", 0.0), ("link_length_error", -1.0)])
+def test_bad_blind_parameters_are_refused(name, value):
+    with pytest.raises(InvalidParameterError, match=name):
+        ExperienceMapConfig(**{name: value})

@@ -72,16 +72,17 @@ class ExperienceMapConfig:
         structure_interval: m driven between the solves eq. M4 starts (a loop closure starts its own). 10 m:
             the wheels' heading walks about 1.7° in that distance (9.1 mrad per root metre, docs/testbed.md),
             within ``structure_tolerance``, so the new experiences' lines are not yet weighed down as misread.
-        blind_distance_variance: how many times the variance of a frame's distance where nothing observed it
-            (the visual odometry held the last speed or read none) exceeds the variance where a cue saw it.
-            A link weighs its length by its weight / (1 + (this − 1) × its share of blind frames) and its
+        blind_speed_error: m/s, how wrong a distance nothing observed may be per second (1σ): a link weighs
+            its length by its weight × s² / (s² + (this × its seconds blind)²), s = ``link_length_error``, and its
             direction by its weight (eq. M5 of :mod:`neuroslam.relaxation`): a loop closure stretches the
-            stretches nobody measured. 1: every length alike (the paper's map). 200: where the floor reads the
-            distance within about 4 %, the blind frames of the twelfth step of docs/generalization.md read it
-            off by about 40 % while a speed is held and by 100 % past ``odometry.blind_hold`` (three held frames
-            to one past it): a root mean square of 0.6, and (0.6 / 0.04)² ≈ 225, rounded down.
-            Only with ``relaxation = "least-squares"``; a source that does not say what it observed (wheels,
-            the paper's profile odometry) is never blind.
+            stretches nobody measured instead of bending the loop. 0: every length alike (the paper's map).
+            0.6 m/s: the testbed drives at about 1 m/s; a held speed is off by about 40 %, a blind frame past
+            ``odometry.blind_hold`` by 100 % (docs/generalization.md, the twelfth step), about three to one, a
+            root mean square of 0.6. Scale it with your robot's speed. Only with ``relaxation =
+            "least-squares"``; a source that does not say what it observed (wheels, the paper's profile
+            odometry) is never blind.
+        link_length_error: m, 1σ of a link's length where its distance was seen: 0.03 m, the root mean square
+            forward error of the links under 0.35 s on 31 benchmark worlds (`benchmarks/link_errors.py`).
     """
 
     view_weight: float = 10.0
@@ -106,7 +107,8 @@ class ExperienceMapConfig:
     structure_weight: float = 0.01
     structure_tolerance: float = math.radians(2.0)
     structure_interval: float = 10.0
-    blind_distance_variance: float = 200.0
+    blind_speed_error: float = 0.6
+    link_length_error: float = 0.03
 
     def __post_init__(self) -> None:
         self.validate()
@@ -141,6 +143,5 @@ class ExperienceMapConfig:
         non_negative(path, structure_weight=self.structure_weight, confirmation_age=self.confirmation_age,
                      confirmation_drift=self.confirmation_drift, confirmation_climb_error=self.confirmation_climb_error,
                      confirmation_spacing=self.confirmation_spacing, confirmation_turn=self.confirmation_turn)
-        require(f"{path}.blind_distance_variance", self.blind_distance_variance,
-                number(self.blind_distance_variance) and self.blind_distance_variance >= 1,
-                "must be a finite number of at least 1")
+        non_negative(path, blind_speed_error=self.blind_speed_error)
+        positive(path, link_length_error=self.link_length_error)

@@ -5,11 +5,13 @@ import math
 import numpy as np
 import pytest
 
+from neuroslam import NeuroSLAM, SelfMotion
 from neuroslam.config import ExperienceMapConfig
 from neuroslam.errors import InvalidParameterError
 from neuroslam.experience_map import ExperienceMap
 from neuroslam.geometry import quarter_wrap
 from neuroslam.relaxation import solve_least_squares
+from neuroslam.vision.motion import Observed
 
 SIDE = 10  # m, and 1 m links: a 10 x 10 m square
 BLIND_READING = 0.3  # of the truth: the blind side reads 3 m (the "held, then none" of a blank floor)
@@ -141,3 +143,19 @@ def test_the_map_counts_each_links_blind_seconds_and_weighs_its_length_by_them()
 def test_bad_blind_parameters_are_refused(name, value):
     with pytest.raises(InvalidParameterError, match=name):
         ExperienceMapConfig(**{name: value})
+
+
+@pytest.mark.parametrize(("observed", "blind_seconds"), [(Observed(distance="held"), 0.1),
+                                                         (Observed(distance="none"), 0.1),
+                                                         (Observed(distance="floor"), 0.0), (None, 0.0)])
+def test_neuroslam_counts_the_seconds_its_self_motion_did_not_see_the_distance(observed, blind_seconds):
+    """Each frame a new view (random images) at 1 m/s, 0.1 s apart: a new experience every frame, each link
+    one frame long, blind for that frame when the self-motion says nothing observed its distance."""
+    rng = np.random.default_rng(0)
+    slam = NeuroSLAM("sim")
+    for frame in range(12):
+        image = rng.integers(0, 256, (120, 160), dtype=np.uint8)
+        slam.step(image, 0.1 * frame, SelfMotion(1.0, 0.0, 0.0, observed))
+    experience_map = slam.experience_map
+    assert len(experience_map.links) >= 8
+    assert experience_map.link_blind_times == pytest.approx([blind_seconds] * len(experience_map.links))

@@ -24,9 +24,9 @@ import json
 from pathlib import Path
 
 import numpy as np
+from exact_odometry import experience_truth
 from generalization import measure_drives
 
-from neuroslam.datasets import read_groundtruth
 from neuroslam.geometry import relative, wrap
 
 GROUPS = {"seen": (-1.0, 0.0), "blind_short": (0.0, 0.5), "blind_long": (0.5, np.inf)}  # s blind (lower excluded)
@@ -39,17 +39,14 @@ def measure(drive: Path) -> dict:
     sums of their squared errors (forward, side and height in m², yaw in rad²), of their squared seconds
     blind (s²) and of their true lengths (m)."""
     metrics = json.loads((drive / "metrics.json").read_text())
-    truth = read_groundtruth(drive / "groundtruth.tum")
     with np.load(drive / "map.npz") as saved:
         state = {name.split(".", 1)[1]: saved[name] for name in saved.files if name.startswith("experience_map.")}
     links, link_poses, weights = state["links"], state["link_poses"], state["link_weights"]
     blind_times = state.get("link_blind_times", np.zeros(len(links)))
     times = state["creation_times"]
     driven = (links[:, 1] == links[:, 0] + 1) & (weights == 1.0) & (state["sessions"][links[:, 0]] == 0)
-    frames = np.searchsorted(truth.times, times - 1e-6)
-    poses = truth.poses
-    sources, targets = frames[links[driven, 0]], frames[links[driven, 1]]
-    true_relative = relative(poses[sources], poses[targets])
+    truth = experience_truth(drive, times)  # each experience's true pose when it was made
+    true_relative = relative(truth[links[driven, 0]], truth[links[driven, 1]])
     distance, heading, facing, height = link_poses[driven].T
     errors = {"forward": distance * np.cos(heading) - true_relative[:, 0],
               "side": distance * np.sin(heading) - true_relative[:, 1],

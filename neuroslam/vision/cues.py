@@ -3,8 +3,8 @@
 :class:`CueSelectionMixin` is the part of :class:`~neuroslam.vision.odometry.VisualOdometry` that takes each
 degree of freedom from the cue that observes it on this frame (the floor, the ceiling, the whole image's
 alignment, the column profile), carries the metric scale from where the floor last gave it (eq. S1), holds
-the last speed for a bounded time where nothing observes the distance, and marks the frame blind in what
-nothing observed (:class:`~neuroslam.vision.motion.Observed`).
+the last speed where nothing observes the distance, for a bounded time after the image last showed the robot
+moving, and marks the frame blind in what nothing observed (:class:`~neuroslam.vision.motion.Observed`).
 """
 
 from __future__ import annotations
@@ -75,7 +75,9 @@ class CueSelectionMixin:
         A ceiling's height is the same along a level, and usually from level to level: it carries the scale
         over a blank floor; the upper image's depth changes with where the robot is, so the expansion is the
         last resort before holding. Where nothing observes the distance, the last observed speed is held for
-        ``blind_hold`` seconds, then it is 0; where nothing observes the yaw, there is no turn; the frame is
+        ``blind_hold`` seconds after the image last showed the robot moving that way (its expansion's t-statistic,
+        eq. R4 of :mod:`.pitch`, at least ``forward_evidence``: a scale-free sign of forward motion), then it is 0;
+        where nothing observes the yaw, there is no turn; the frame is
         marked blind in it (:class:`Observed`). The floor's prior for the next frame (eq. G3's (d0, w0))
         becomes what was taken, so a blank floor does not carry a stale motion on.
         """
@@ -145,8 +147,12 @@ class CueSelectionMixin:
                 distance, distance_source = floor_distance, "floor"
         if distance is not None:
             self._held_speed, self._blind_for, self._unobserved = distance / dt, 0.0, 0
-        else:  # nothing sees the distance: the last speed, for blind_hold seconds
-            self._blind_for += dt
+        else:  # nothing sees the distance: the last speed, for blind_hold seconds after the image last showed
+            # the robot moving in its direction (eq. R4's expansion, its scale unknown)
+            evidence = config.forward_evidence
+            moving = (evidence > 0 and self._alignment is not None and self._held_speed != 0
+                      and math.copysign(1.0, self._held_speed) * self._alignment.expansion_significance() >= evidence)
+            self._blind_for = 0.0 if moving else self._blind_for + dt
             held = self._blind_for <= config.blind_hold
             distance, distance_source = (self._held_speed * dt, "held") if held else (0.0, "none")
             self._unobserved += 1

@@ -68,6 +68,9 @@ __all__ = ["LevelTransitions", "RotationAlignment"]
 _DAMPING = 1e-2  # Tikhonov term added to the Gauss–Newton normal equations (intensity² · rad⁻²)
 _MIN_SUPPORT = 0.5  # below this share of the region's pixels still in the previous image, no solution
 _TOLERANCE = 1e-4  # rad: an update of yaw and pitch below this (0.01 pixel) ends the iterations
+# the RMS difference of two 8-bit quantised images of one scene (each off by a uniform 1/255 step: variance
+# 1/12 of a step squared, twice): the least residual eq. R4 divides by
+_QUANTISATION = 1.0 / (255.0 * math.sqrt(6.0))
 _RETRY = math.radians(1)  # a second start from the floor's yaw when it differs from the previous yaw by more
 
 
@@ -92,6 +95,8 @@ class RotationAlignment:
         # the last frame's information on (yaw, pitch, expansion): each the inverse of its entry of the inverse
         # normal matrix of eq. R2 (the other two free), intensity² per rad² (per unit for e)
         self.information = np.zeros(3)
+        self.expansion = 0.0  # the last frame's expansion e of eq. R1 (a fraction of the image's size)
+        self.cost = math.inf  # the last frame's mean Huber cost of eq. R2 at its solution (images in [0, 1])
         self._last: tuple = (None, None, np.zeros(3), False)  # the last step's images, solution, and success
         self._pixels: dict[tuple[int, int], tuple] = {}
         # passes over the region's pixels so far (Gauss–Newton iterations and cost evaluations), for the cost
@@ -142,7 +147,7 @@ class RotationAlignment:
         if not math.isfinite(cost):
             parameters, information = np.array([floor_yaw, 0.0, 0.0]), np.zeros(3)
         yaw, pitch = float(parameters[0]), float(parameters[1])
-        self.yaw, self.information = yaw, information
+        self.yaw, self.information, self.expansion, self.cost = yaw, information, float(parameters[2]), cost
         self._last = (previous, current, parameters, math.isfinite(cost))
         return yaw, pitch
 
@@ -151,6 +156,22 @@ class RotationAlignment:
         """Pixels of the aligned region at the last image size (the information above is summed over them)."""
         last = self._last[1]
         return 0 if last is None else len(self._grid(last.shape[1:])[1])
+
+    def expansion_significance(self) -> float:
+        """The last frame's expansion e of eq. R1 over its standard error: a t-statistic, positive for an image
+        that grows (the camera moving forward), about 0 at rest or turning in place.
+
+            z = e sqrt(I_e) / sigma,    sigma = max(sqrt(2 C), sigma_q)                                (R4)
+
+        with I_e the marginal information on e (:attr:`information`), C the mean Huber cost at the solution
+        (r² / 2 for small residuals r, so sqrt(2 C) is their root mean square: sensor noise, and where the
+        camera moves, what one expansion does not explain) and sigma_q = 1 / (255 sqrt 6) the difference of two
+        8-bit quantised images (two identical frames would otherwise divide 0 by 0); 0 where the step found no
+        solution."""
+        if not (self._last[3] and math.isfinite(self.cost)):
+            return 0.0
+        sigma = max(math.sqrt(2.0 * self.cost), _QUANTISATION)
+        return self.expansion * math.sqrt(max(float(self.information[2]), 0.0)) / sigma
 
     def quadrant_yaw(self) -> tuple[float, float]:
         """The last frame's yaw solved again with one expansion per quadrant of the image (eq. R1 with e

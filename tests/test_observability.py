@@ -154,6 +154,33 @@ def test_an_open_deck_turns_by_the_distant_structure_along_its_horizon():
     assert np.all(motions[1:, 1] == 0.0) and all(item.yaw == "none" for item in observed[1:])
 
 
+def test_a_blind_stretch_longer_than_the_hold_keeps_its_speed_while_the_image_shows_the_motion():
+    # marks for 4 m, then 16 m of blank floor under the sky between low walls (0.6 m) whose only texture is a
+    # post every 3 m: too little for the ceiling's or the upper image's distance, so the speed is held; the
+    # walls' expansion (eq. R4) shows the robot still moving, so it is held for all 16 s, not blind_hold's 10
+    scene = Scene(floor=Texture("blobs", level=0.45, blank_beyond=-11.0), ceiling=None, half_width=3.0,
+                  wall_height=0.6, walls=Texture("tiles", level=0.4, scale=3.0, contrast=0.3, seed=1))
+    path = arc_path([(20.0, 0.0)], start=(-15.0, -1.0, 0.0))
+    blind = path[1:, 0] > -9.0  # 2 m onto the blank floor and beyond
+    odometry, sources, read = VisualOdometry(), [], []
+    stopped = scene.render(*path[-1])
+    for k, pose in enumerate([*path, *[path[-1]] * 120]):  # then 12 s standing still
+        motion = odometry.step(scene.render(*pose) if k < len(path) else stopped, 0.1 if k else 0.0)
+        sources.append(motion.observed.distance if k else "")
+        read.append(motion.forward_speed * 0.1)
+    driving, standing = sources[1:len(path)], sources[len(path):]
+    assert all(source == "held" for source, seen in zip(driving, blind, strict=True) if seen)
+    assert sum(np.array(read[1:len(path)])[blind]) == pytest.approx(np.diff(path[:, 0])[blind].sum(), rel=0.10)
+    # standing still, the image shows no motion: the hold ends blind_hold (10 s) after the last frame that did
+    # (99 or 100 frames of 0.1 s, as the seconds' float sum falls)
+    held = standing.index("none")
+    assert 99 <= held <= 100 and set(standing[:held]) == {"held"} and set(standing[held:]) == {"none"}
+    # without eq. R4 the hold ends 10 s after the floor's last distance, and the rest reads 0
+    motions, observed = drive(scene, path, VisualOdometryConfig(forward_evidence=0.0))
+    assert sum(item.distance == "none" for item in observed[1:]) > 50
+    assert motions[1:, 0][blind].sum() < 0.7 * np.diff(path[:, 0])[blind].sum()
+
+
 def test_a_floor_solution_the_whole_image_contradicts_is_not_taken(monkeypatch):
     # a wrong minimum of the floor alignment (as on a sparsely marked ramp: single frames read 3–13 degrees of
     # turn while driving straight): every tenth frame the floor reports 8 degrees of turn and half the

@@ -53,6 +53,12 @@ does end a slope where it brings the pitch back to within ``level_snap`` of leve
 coincidence noise does not make, and the world model's (see :class:`LevelTransitions`).
 
 Slopes that change gradually (a curved ramp) are not followed: that is the model's limit.
+
+**Is the camera still moving?** (eq. R4). The expansion e of eq. R1 over its standard error is a
+t-statistic, :meth:`RotationAlignment.expansion_significance`: large and positive where the image grows (the
+camera moves forward, whatever the scene's depth), about 0 at rest or turning on the spot (a rotation is
+eq. R1's exactly). It gives the motion's sign, not its size: where nothing observes the distance, the visual
+odometry keeps the last speed while it shows the robot moving (``odometry.forward_evidence``).
 """
 
 from __future__ import annotations

@@ -120,13 +120,15 @@ def _rotation_jacobian(previous, x, y, parameters, labels):
     return np.array(rows)
 
 
-@pytest.mark.parametrize("count", [1, 4])
+@pytest.mark.parametrize("count", [1, 4, 16])
 def test_rotation_normal_equations_match_finite_differences(count):
-    """The Jacobian of eq. R2 in the kernel's normal equations against central differences of the residual."""
+    """The Jacobian of eq. R2 in the kernel's normal equations against central differences of the residual: one
+    expansion, one per quadrant, one per column block (eq. R5, the general pass)."""
     previous, current = _stack(4), _stack(5)
     v, u = np.mgrid[24:96:2, 16:144:2]
     x, y = u.ravel() - 79.5, v.ravel() - 59.5
-    labels = (2 * (y >= 0) + (x >= 0)).astype(np.intp) if count == 4 else np.zeros(len(x), dtype=np.intp)
+    labels = {1: np.zeros(len(x), dtype=np.intp), 4: (2 * (y >= 0) + (x >= 0)).astype(np.intp),
+              16: (u.ravel() * 16 // 160).astype(np.intp)}[count]
     target = current[0][v.ravel(), u.ravel()]
     parameters = np.array([0.02, -0.01] + [0.01] * count)
     normal, gradient = rotation_normal(previous, target, x, y, labels, parameters, FOCAL, 0.05)

@@ -181,6 +181,18 @@ def test_a_blind_stretch_longer_than_the_hold_keeps_its_speed_while_the_image_sh
     assert motions[1:, 0][blind].sum() < 0.7 * np.diff(path[:, 0])[blind].sum()
 
 
+def test_a_tiled_wall_near_on_one_side_of_a_blank_floor_does_not_turn_a_straight_path():
+    # 8 m straight over a blank floor, 2 m from one wall and 10 m from the other, walls tiled (a line every
+    # metre): the yaw comes from the whole image, and the near wall's depth changes across it. One expansion
+    # per column block (eq. R5) reads -0.4 degrees (measured); one per quadrant read +1.9, one for the image +5.9
+    scene = Scene(floor=Texture("blank", level=0.5), half_width=6.0, half_length=9.0,
+                  walls=Texture("tiles", level=0.4, scale=1.0, contrast=0.3, seed=1))
+    path = arc_path([(8.0, 0.0)], start=(-6.0, -4.0, 0.0))
+    motions, observed = drive(scene, path)
+    assert sum(item.yaw == "image" for item in observed[1:]) >= 0.9 * len(observed[1:])
+    assert abs(math.degrees(motions[1:, 1].sum())) < 1.0
+
+
 def test_a_floor_solution_the_whole_image_contradicts_is_not_taken(monkeypatch):
     # a wrong minimum of the floor alignment (as on a sparsely marked ramp: single frames read 3–13 degrees of
     # turn while driving straight): every tenth frame the floor reports 8 degrees of turn and half the

@@ -55,10 +55,12 @@ class CueSelectionMixin:
           lines along the path, or only its edges against the walls, sees the yaw through them, and walls
           standing close take part in it with a bias, see :mod:`.ground_motion`) and the whole image's yaw
           (eq. R2) agrees with it within ``floor_yaw_tolerance`` (else the floor's solution, distance and yaw,
-          is a wrong minimum and is not used); else the whole image's (eq. R2: walls, ceiling) where it sees
-          the yaw; else the shift of the whole image's column profile (NeuroSLAM eqs. 27–29) where one shift stands out
-          (:func:`profile_turn`: eq. R2 weighs the information per pixel, and a thin band of distant structure
-          along an open horizon has too little of it, yet fits one shift only); else none.
+          is a wrong minimum and is not used); else the whole image's (walls, ceiling) where it sees the yaw
+          (eq. R2's information), solved again with one expansion per column block (eq. R5 of :mod:`.pitch`: a
+          wall's depth changes across the image, which one expansion leaves to the yaw); else the shift of the
+          whole image's column profile (NeuroSLAM eqs. 27–29) where one shift stands out (:func:`profile_turn`:
+          eq. R2 weighs the information per pixel, and a thin band of distant structure along an open horizon
+          has too little of it, yet fits one shift only); else none.
         - Distance, in this order: the floor's where it sees it (with ``floor_half_width``, eq. G5's lane beside
           the path; where the lane does not see it firmly, the whole floor's, whose walls' feet lie on the floor
           plane, its distance alone: :meth:`~.ground_motion.GroundMotion.whole_floor_distance`); the ceiling's
@@ -89,11 +91,9 @@ class CueSelectionMixin:
             not image_sees_yaw or abs(floor_yaw - aligned_yaw) <= config.floor_yaw_tolerance)
         if floor_sees:
             yaw, yaw_source = floor_yaw, "floor"
-        elif image_sees_yaw:  # the yaw again with the walls' depths apart (one expansion per quadrant)
-            quadrant_yaw, information = alignment.quadrant_yaw()
-            if information / max(alignment.pixels, 1) < config.min_image_information:
-                quadrant_yaw = aligned_yaw
-            yaw, yaw_source = float(np.clip(quadrant_yaw, -limit_yaw, limit_yaw)), "image"
+        elif image_sees_yaw:  # the yaw again with the walls' depths apart (one expansion per column block, R5)
+            column_yaw, _ = alignment.column_yaw()
+            yaw, yaw_source = float(np.clip(column_yaw, -limit_yaw, limit_yaw)), "image"
         else:  # the column profile's shift (NeuroSLAM eqs. 27–29), where one shift stands out
             shift, stands_out = profile_turn(*self._rotation_profiles, self._max_columns)
             if stands_out:

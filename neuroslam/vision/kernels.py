@@ -322,7 +322,8 @@ def _rotation_blocks(previous, target, x, y, labels, parameters, focal, robust_s
     :meth:`~.pitch.RotationAlignment.column_yaw`), each pixel with ``parameters[2 + labels[k]]``: the
     Huber-weighted normal equations (2+K, 2+K) and gradient (2+K), float64, and the cost's sum and the count of
     pixels in view. The per-pixel arithmetic is :func:`_rotation_sums`' (float32); the sums are float64 arrays,
-    indexed by the label, which the vector units do not take: about twice the quadrant pass's time."""
+    indexed by the label, which the vector units do not take: 60 µs a pass over 2,304 pixels against the
+    quadrant form's 34 and the one-expansion form's 25 (this project's machine, beside another job)."""
     size = parameters.shape[0]
     rows, columns = previous.shape[1], previous.shape[2]
     flat_image, flat_u, flat_v = previous[0].ravel(), previous[1].ravel(), previous[2].ravel()

@@ -159,22 +159,26 @@ def test_rotation_normal_equations_match_finite_differences(count):
     assert support == pytest.approx(visible.mean())
 
 
-def test_the_one_expansion_pass_is_the_quadrant_pass_with_one_label():
-    """The rotation pass compiled for one expansion (every call but ``quadrant_yaw``) gives, bit for bit, the
-    numbers of the quadrant form with every pixel in quadrant 0 and its expansion in all four."""
+def test_the_one_expansion_pass_is_the_general_pass_with_every_pixel_in_one_block():
+    """The rotation pass compiled for one expansion (every call but eq. R5's) and the general pass (any number of
+    expansions, float64 sums) with every pixel in block 0 and its expansion in all four: the same normal
+    equations and cost, to the one-expansion pass's float32 sums over 2,304 terms (1e-5 relative), and nothing
+    in the empty blocks."""
     previous, current = _stack(4), _stack(5)
     v, u = np.mgrid[24:96:2, 16:144:2]
     x, y = (u.ravel() - 79.5).astype(np.float32), (v.ravel() - 59.5).astype(np.float32)
     labels = np.zeros(len(x), dtype=np.intp)
     target = current[0][v.ravel(), u.ravel()]
     single = np.array([0.02, -0.01, 0.01])
-    quadrants = np.array([0.02, -0.01, 0.01, 0.01, 0.01, 0.01])
+    blocks = np.array([0.02, -0.01, 0.01, 0.01, 0.01, 0.01])
     normal, gradient = rotation_normal(previous, target, x, y, labels, single, FOCAL, 0.05)
-    normal4, gradient4 = rotation_normal(previous, target, x, y, labels, quadrants, FOCAL, 0.05)
-    assert np.array_equal(normal, normal4[:3, :3]) and np.array_equal(gradient, gradient4[:3])
-    assert not normal4[3:].any() and not gradient4[3:].any()  # quadrants 1-3 hold no pixel
-    assert rotation_cost(previous, target, x, y, labels, single, FOCAL, 0.05) == rotation_cost(
-        previous, target, x, y, labels, quadrants, FOCAL, 0.05)
+    normal4, gradient4 = rotation_normal(previous, target, x, y, labels, blocks, FOCAL, 0.05)
+    np.testing.assert_allclose(normal, normal4[:3, :3], rtol=1e-5, atol=1e-5 * np.abs(normal).max())
+    np.testing.assert_allclose(gradient, gradient4[:3], rtol=1e-5, atol=1e-5 * np.abs(gradient).max())
+    assert not normal4[3:].any() and not gradient4[3:].any()  # blocks 1-3 hold no pixel
+    cost, support = rotation_cost(previous, target, x, y, labels, single, FOCAL, 0.05)
+    cost4, support4 = rotation_cost(previous, target, x, y, labels, blocks, FOCAL, 0.05)
+    assert cost4 == pytest.approx(cost, rel=1e-5) and support4 == support
 
 
 def test_rotation_solve_recovers_a_pure_rotation():

@@ -10,8 +10,8 @@ own precision, and the numpy forms' arrays), its sums in IEEE order, and runs on
 as ordered reductions (:mod:`neuroslam.compiled`; about 8 ns a pixel against about 21 scalar on this
 project's machine, the same results bit for bit). The equations are the modules' own;
 the sums' rounding differs from the numpy forms' (both float32 sums over a few thousand terms, about 1e-5
-relative), so results agree with them to that, not bit for bit. The iterations' bookkeeping (the 2 × 2 or
-6 × 6 solves, the prior, the stopping tests) is in float64.
+relative), so results agree with them to that, not bit for bit. The iterations' bookkeeping (the 2 × 2, 3 × 3 or
+18 × 18 solves, the prior, the stopping tests) is in float64.
 
 The functions are compiled on first use and cached on disk (numba's ``cache=True``: beside this file where
 it is writable, else in the user's cache directory), so a new process pays the compilation (a few seconds)
@@ -191,139 +191,78 @@ def ground_align(old, target, ground_x, ground_y, flow, focal, centre_u, centre_
     return distance, turn, information_distance, information_turn, support, near_information, done
 
 
-def _rotation_sums_for(single: bool):
-    """The pass of eqs. R1–R2 compiled for one expansion (``single``: every pixel's is ``expansions[0]``, the
-    labels unread, quadrants 1–3's sums left 0) or for one per quadrant. ``single`` is a constant of the
-    compiled loop (numba freezes a closure's variables), so each form compiles to a branch-free loop of its own;
-    the one-expansion form skips the quadrant masks (about 27 against 42 µs a pass at 160 × 120 on this
-    project's machine) and gives the same numbers bit for bit as the quadrant form with all labels 0."""
-
-    @numba.njit(inline="always", **_JIT)
-    def _rotation_sums(previous, target, x, y, labels, yaw, pitch, expansions, focal, robust_scale):
-        """One pass of eqs. R1–R2 over the region's pixels (x, y from the image centre, px, float32), each with
-        the expansion of its quadrant ``expansions[labels[k]]`` (four values). Returns the Huber-weighted
-        normal equations' entries (20: on (yaw, pitch) and, per quadrant, on its expansion), the mean Huber
-        cost over the pixels in view, and their count, as one float64 array: [yaw·yaw, yaw·pitch,
-        pitch·pitch, yaw·r, pitch·r, then per quadrant q: yaw·e_q, pitch·e_q, e_q·e_q, e_q·r, then the
-        cost's sum, the count]."""
-        rows, columns = previous.shape[1], previous.shape[2]
-        flat_image, flat_u, flat_v = previous[0].ravel(), previous[1].ravel(), previous[2].ravel()
-        f32 = np.float32
-        f, scale_huber = f32(focal), f32(robust_scale)
-        centre_u, centre_v = f32(columns / 2 - 0.5), f32(rows / 2 - 0.5)
-        limit_u, limit_v = f32(columns - 1.001), f32(rows - 1.001)
-        cy, sy, cp, sp = f32(math.cos(yaw)), f32(math.sin(yaw)), f32(math.cos(pitch)), f32(math.sin(pitch))
-        e0, e1, e2, e3 = f32(expansions[0]), f32(expansions[1]), f32(expansions[2]), f32(expansions[3])
-        zero, one = f32(0.0), f32(1.0)
-        yy = yp = pp = yr = pr = cost = visible_count = zero
-        ye0 = pe0 = ee0 = er0 = ye1 = pe1 = ee1 = er1 = zero
-        ye2 = pe2 = ee2 = er2 = ye3 = pe3 = ee3 = er3 = zero
-        for k in range(target.shape[0]):
-            if single:
-                expansion = e0
-            else:
-                label = labels[k]
-                m0, m1, m2, m3 = (one if label == 0 else zero, one if label == 1 else zero,
-                                  one if label == 2 else zero, one if label == 3 else zero)
-                expansion = m0 * e0 + m1 * e1 + m2 * e2 + m3 * e3
-            xk, yk = x[k], y[k]
-            py, pz = cp * yk - sp * f, sp * yk + cp * f  # R_pitch r (x unchanged)
-            rx, rz = cy * xk - sy * pz, sy * xk + cy * pz  # R_yaw (x, py, pz)
-            # a ray turned more than about 84 degrees off the axis (rz below f / 10) lands more than ten focal
-            # lengths off the centre, or behind the camera: never in view; its projection would divide by
-            # zero at 90 degrees and poison the sums (and the sample's index) with inf and NaN
-            ahead = rz > f32(0.1) * f
-            inverse = one / rz if ahead else zero
-            scale = (one - expansion) * f
-            u = scale * rx * inverse + centre_u  # eq. R1
-            v = scale * py * inverse + centre_v
-            visible = ahead & (u >= zero) & (u <= limit_u) & (v >= zero) & (v <= limit_v)
-            intensity, gradient_u, gradient_v = _sample32(flat_image, flat_u, flat_v, columns, u, v, limit_u, limit_v)
-            residual = intensity - target[k]
-            size = abs(residual)
-            weight = scale_huber / max(size, scale_huber)
-            weight = weight if visible else zero
-            huber = f32(0.5) * size * size if size < scale_huber else scale_huber * (size - f32(0.5) * scale_huber)
-            cost += huber if visible else zero
-            visible_count += one if visible else zero
-            # derivatives of (rx, py, rz) and then of (u, v) = scale (rx, py) / rz
-            d_rx, d_rz = -sy * xk - cy * pz, cy * xk - sy * pz
-            du = scale * (d_rx - rx * inverse * d_rz) * inverse
-            dv = scale * (-py * inverse * d_rz) * inverse
-            j_yaw = gradient_u * du + gradient_v * dv
-            d_pitch_y, d_pitch_z = -sp * yk - cp * f, cp * yk - sp * f
-            d_rx, d_rz = -sy * d_pitch_z, cy * d_pitch_z
-            du = scale * (d_rx - rx * inverse * d_rz) * inverse
-            dv = scale * (d_pitch_y - py * inverse * d_rz) * inverse
-            j_pitch = gradient_u * du + gradient_v * dv
-            j_expansion = -(gradient_u * rx + gradient_v * py) * f * inverse  # d/de of the pixel's own e
-            w_yaw, w_pitch, w_expansion = weight * j_yaw, weight * j_pitch, weight * j_expansion
-            yy += w_yaw * j_yaw
-            yp += w_yaw * j_pitch
-            pp += w_pitch * j_pitch
-            yr += w_yaw * residual
-            pr += w_pitch * residual
-            ye, pe, ee, er = (w_yaw * j_expansion, w_pitch * j_expansion, w_expansion * j_expansion,
-                              w_expansion * residual)
-            if single:
-                ye0 += ye
-                pe0 += pe
-                ee0 += ee
-                er0 += er
-            else:
-                ye0 += m0 * ye
-                pe0 += m0 * pe
-                ee0 += m0 * ee
-                er0 += m0 * er
-                ye1 += m1 * ye
-                pe1 += m1 * pe
-                ee1 += m1 * ee
-                er1 += m1 * er
-                ye2 += m2 * ye
-                pe2 += m2 * pe
-                ee2 += m2 * ee
-                er2 += m2 * er
-                ye3 += m3 * ye
-                pe3 += m3 * pe
-                ee3 += m3 * ee
-                er3 += m3 * er
-        return np.array([yy, yp, pp, yr, pr, ye0, pe0, ee0, er0, ye1, pe1, ee1, er1, ye2, pe2, ee2, er2,
-                         ye3, pe3, ee3, er3, cost, visible_count], dtype=np.float64)
-
-    return _rotation_sums
-
-
-_rotation_sums_single, _rotation_sums_quadrants = _rotation_sums_for(True), _rotation_sums_for(False)
-
-
-@numba.njit(**_JIT)
-def _expansions(parameters):
-    """The four quadrants' expansions of ``parameters`` (yaw, pitch, e) or (yaw, pitch, e_0 … e_3)."""
-    out = np.empty(4)
-    for q in range(4):
-        out[q] = parameters[2 + min(q, parameters.shape[0] - 3)]
-    return out
-
-
 @numba.njit(inline="always", **_JIT)
-def _rotation_pass(previous, target, x, y, labels, parameters, focal, robust_scale):
-    """:func:`_rotation_sums` at ``parameters`` (yaw, pitch, e) or (yaw, pitch, e_0 … e_3), in the form compiled
-    for their number of expansions."""
-    if parameters.shape[0] == 3:
-        return _rotation_sums_single(previous, target, x, y, labels, parameters[0], parameters[1],
-                                     _expansions(parameters), focal, robust_scale)
-    return _rotation_sums_quadrants(previous, target, x, y, labels, parameters[0], parameters[1],
-                                    _expansions(parameters), focal, robust_scale)
+def _rotation_sums(previous, target, x, y, yaw, pitch, expansion, focal, robust_scale):
+    """One pass of eqs. R1–R2 over the region's pixels (x, y from the image centre, px, float32), every one with
+    the one ``expansion``. Returns the Huber-weighted normal equations' entries on (yaw, pitch, e), the Huber
+    cost's sum over the pixels in view, and their count, as one float64 array: [yaw·yaw, yaw·pitch,
+    pitch·pitch, yaw·r, pitch·r, yaw·e, pitch·e, e·e, e·r, the cost's sum, the count]. Written without branches
+    and compiled to a loop on the vector units (:func:`_rotation_blocks` takes any number of expansions)."""
+    rows, columns = previous.shape[1], previous.shape[2]
+    flat_image, flat_u, flat_v = previous[0].ravel(), previous[1].ravel(), previous[2].ravel()
+    f32 = np.float32
+    f, scale_huber = f32(focal), f32(robust_scale)
+    centre_u, centre_v = f32(columns / 2 - 0.5), f32(rows / 2 - 0.5)
+    limit_u, limit_v = f32(columns - 1.001), f32(rows - 1.001)
+    cy, sy, cp, sp = f32(math.cos(yaw)), f32(math.sin(yaw)), f32(math.cos(pitch)), f32(math.sin(pitch))
+    e0 = f32(expansion)
+    zero, one = f32(0.0), f32(1.0)
+    yy = yp = pp = yr = pr = cost = visible_count = zero
+    ye0 = pe0 = ee0 = er0 = zero
+    for k in range(target.shape[0]):
+        xk, yk = x[k], y[k]
+        py, pz = cp * yk - sp * f, sp * yk + cp * f  # R_pitch r (x unchanged)
+        rx, rz = cy * xk - sy * pz, sy * xk + cy * pz  # R_yaw (x, py, pz)
+        # a ray turned more than about 84 degrees off the axis (rz below f / 10) lands more than ten focal
+        # lengths off the centre, or behind the camera: never in view; its projection would divide by
+        # zero at 90 degrees and poison the sums (and the sample's index) with inf and NaN
+        ahead = rz > f32(0.1) * f
+        inverse = one / rz if ahead else zero
+        scale = (one - e0) * f
+        u = scale * rx * inverse + centre_u  # eq. R1
+        v = scale * py * inverse + centre_v
+        visible = ahead & (u >= zero) & (u <= limit_u) & (v >= zero) & (v <= limit_v)
+        intensity, gradient_u, gradient_v = _sample32(flat_image, flat_u, flat_v, columns, u, v, limit_u, limit_v)
+        residual = intensity - target[k]
+        size = abs(residual)
+        weight = scale_huber / max(size, scale_huber)
+        weight = weight if visible else zero
+        huber = f32(0.5) * size * size if size < scale_huber else scale_huber * (size - f32(0.5) * scale_huber)
+        cost += huber if visible else zero
+        visible_count += one if visible else zero
+        # derivatives of (rx, py, rz) and then of (u, v) = scale (rx, py) / rz
+        d_rx, d_rz = -sy * xk - cy * pz, cy * xk - sy * pz
+        du = scale * (d_rx - rx * inverse * d_rz) * inverse
+        dv = scale * (-py * inverse * d_rz) * inverse
+        j_yaw = gradient_u * du + gradient_v * dv
+        d_pitch_y, d_pitch_z = -sp * yk - cp * f, cp * yk - sp * f
+        d_rx, d_rz = -sy * d_pitch_z, cy * d_pitch_z
+        du = scale * (d_rx - rx * inverse * d_rz) * inverse
+        dv = scale * (d_pitch_y - py * inverse * d_rz) * inverse
+        j_pitch = gradient_u * du + gradient_v * dv
+        j_expansion = -(gradient_u * rx + gradient_v * py) * f * inverse  # d/de
+        w_yaw, w_pitch, w_expansion = weight * j_yaw, weight * j_pitch, weight * j_expansion
+        yy += w_yaw * j_yaw
+        yp += w_yaw * j_pitch
+        pp += w_pitch * j_pitch
+        yr += w_yaw * residual
+        pr += w_pitch * residual
+        ye0 += w_yaw * j_expansion
+        pe0 += w_pitch * j_expansion
+        ee0 += w_expansion * j_expansion
+        er0 += w_expansion * residual
+    return np.array([yy, yp, pp, yr, pr, ye0, pe0, ee0, er0, cost, visible_count], dtype=np.float64)
 
 
 @numba.njit(**_JIT)
 def _rotation_blocks(previous, target, x, y, labels, parameters, focal, robust_scale):
-    """One pass of eqs. R1–R2 with any number K of expansions (K > 4: the column blocks of
+    """One pass of eqs. R1–R2 with any number K of expansions (the column blocks of eq. R5,
     :meth:`~.pitch.RotationAlignment.column_yaw`), each pixel with ``parameters[2 + labels[k]]``: the
     Huber-weighted normal equations (2+K, 2+K) and gradient (2+K), float64, and the cost's sum and the count of
     pixels in view. The per-pixel arithmetic is :func:`_rotation_sums`' (float32); the sums are float64 arrays,
-    indexed by the label, which the vector units do not take: 60 µs a pass over 2,304 pixels against the
-    quadrant form's 34 and the one-expansion form's 25 (this project's machine, beside another job)."""
+    indexed by the label, which the vector units do not take: 60 µs a pass over 2,304 pixels with 16 blocks
+    against 34 with 4 (the quadrant form this replaced) and 25 for the one-expansion form (this project's
+    machine, beside another job)."""
     size = parameters.shape[0]
     rows, columns = previous.shape[1], previous.shape[2]
     flat_image, flat_u, flat_v = previous[0].ravel(), previous[1].ravel(), previous[2].ravel()
@@ -385,28 +324,15 @@ def _rotation_blocks(previous, target, x, y, labels, parameters, focal, robust_s
 
 @numba.njit(**_JIT)
 def rotation_normal(previous, target, x, y, labels, parameters, focal, robust_scale):
-    """The Huber-weighted normal equations of eq. R2 at ``parameters`` = (yaw, pitch, e_0 … e_{K−1}) (K = 1, 4 or
-    more), each pixel (x, y from the image centre, px) with its own expansion e_labels[k] (labels all 0 for
-    K = 1): (normal (2+K, 2+K), gradient (2+K))."""
-    size = parameters.shape[0]
-    if size > 6:
+    """The Huber-weighted normal equations of eq. R2 at ``parameters`` = (yaw, pitch, e_0 … e_{K−1}), each pixel
+    (x, y from the image centre, px) with its own expansion e_labels[k] (the labels unread for K = 1):
+    (normal (2+K, 2+K), gradient (2+K))."""
+    if parameters.shape[0] > 3:
         normal, gradient, _, _ = _rotation_blocks(previous, target, x, y, labels, parameters, focal, robust_scale)
         return normal, gradient
-    sums = _rotation_pass(previous, target, x, y, labels, parameters, focal, robust_scale)
-    normal = np.zeros((size, size))
-    gradient = np.zeros(size)
-    normal[0, 0], normal[0, 1], normal[1, 1] = sums[0], sums[1], sums[2]
-    gradient[0], gradient[1] = sums[3], sums[4]
-    for q in range(4):
-        row = 2 + min(q, size - 3)  # with one expansion every quadrant's sums are its
-        normal[0, row] += sums[5 + 4 * q]
-        normal[1, row] += sums[6 + 4 * q]
-        normal[row, row] += sums[7 + 4 * q]
-        gradient[row] += sums[8 + 4 * q]
-    for row in range(size):
-        for column in range(row):
-            normal[row, column] = normal[column, row]
-    return normal, gradient
+    sums = _rotation_sums(previous, target, x, y, parameters[0], parameters[1], parameters[2], focal, robust_scale)
+    normal = np.array([[sums[0], sums[1], sums[5]], [sums[1], sums[2], sums[6]], [sums[5], sums[6], sums[7]]])
+    return normal, np.array([sums[3], sums[4], sums[8]])
 
 
 @numba.njit(**_JIT)
@@ -414,11 +340,11 @@ def rotation_cost(previous, target, x, y, labels, parameters, focal, robust_scal
     """Eq. R2's mean Huber cost over the pixels that land inside the previous image, and their share:
     (cost, support)."""
     count = target.shape[0]
-    if parameters.shape[0] > 6:
+    if parameters.shape[0] > 3:
         _, _, cost, visible = _rotation_blocks(previous, target, x, y, labels, parameters, focal, robust_scale)
         return cost / max(visible, 1.0), visible / max(count, 1)
-    sums = _rotation_pass(previous, target, x, y, labels, parameters, focal, robust_scale)
-    return sums[21] / max(sums[22], 1.0), sums[22] / max(count, 1)
+    sums = _rotation_sums(previous, target, x, y, parameters[0], parameters[1], parameters[2], focal, robust_scale)
+    return sums[9] / max(sums[10], 1.0), sums[10] / max(count, 1)
 
 
 @numba.njit(**_JIT)

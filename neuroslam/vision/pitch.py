@@ -115,20 +115,19 @@ class RotationAlignment:
         self.cost = math.inf  # the last frame's mean Huber cost of eq. R2 at its solution (images in [0, 1])
         self._last: tuple = (None, None, np.zeros(3), False)  # the last step's images, solution, and success
         self._pixels: dict[tuple[int, int], tuple] = {}
-        self._blocks: dict[tuple[int, int], np.ndarray] = {}  # per image size: each region pixel's column block
         # passes over the region's pixels so far (Gauss–Newton iterations and cost evaluations), for the cost
         self.passes = 0
 
     def _grid(self, shape: tuple[int, int], upper: bool = False) -> tuple:
         """Per image size: focal length, the region's pixels (flat indices), their centred coordinates and
-        quadrants; with ``upper``, those above the image centre alone."""
+        column blocks (eq. R5); with ``upper``, those above the image centre alone."""
         cached = self._pixels.get((shape, upper))
         if cached is not None:
             return cached
         if upper:
-            focal, indices, x, y, quadrants = self._grid(shape)
+            focal, indices, x, y, blocks = self._grid(shape)
             above = y < 0
-            cached = (focal, indices[above], x[above], y[above], quadrants[above])
+            cached = (focal, indices[above], x[above], y[above], blocks[above])
             self._pixels[(shape, upper)] = cached
             return cached
         rows, columns = shape
@@ -140,9 +139,8 @@ class RotationAlignment:
         focal = (columns / 2) / math.tan(self.horizontal_fov / 2)
         x = (u - (columns / 2 - 0.5)).astype(np.float32)
         y = (v - (rows / 2 - 0.5)).astype(np.float32)
-        quadrants = (2 * (y >= 0) + (x >= 0)).astype(np.intp)  # 0 upper left, 1 upper right, 2, 3 lower
-        self._blocks[shape] = np.minimum(u * COLUMN_BLOCKS // columns, COLUMN_BLOCKS - 1).astype(np.intp)
-        cached = (focal, v * columns + u, x, y, quadrants)
+        blocks = np.minimum(u * COLUMN_BLOCKS // columns, COLUMN_BLOCKS - 1).astype(np.intp)
+        cached = (focal, v * columns + u, x, y, blocks)
         self._pixels[(shape, upper)] = cached
         return cached
 
@@ -220,25 +218,6 @@ class RotationAlignment:
             return float(parameters[0]), 0.0
         return float(solution[0]), float(information[0])
 
-    def quadrant_yaw(self) -> tuple[float, float]:
-        """The last frame's yaw solved again with one expansion per quadrant of the image (eq. R1 with e
-        taking four values), from :meth:`step`'s solution: (yaw change rad, its information Σ w J² marginal,
-        intensity² per rad²); (the yaw, 0) where the step found none.
-
-        Forward motion moves near things faster than far ones: with a wall close on one side and far on the
-        other, one expansion for the whole image leaves the difference to the yaw (measured on a blank floor
-        in a synthetic 18 × 12 m hall, 2 m from one wall: 8.7° over 8 m straight; 1.8° with four). The pitch
-        is not taken from it: a half-image's expansion is nearly collinear with a uniform vertical shift, and
-        the pitch over the car park's ramp lost precision (height 0.50 m off after the ramp, against 0.28)."""
-        previous, current, parameters, found = self._last
-        if not found:
-            return float(parameters[0]), 0.0
-        start = np.concatenate([parameters[:2], np.full(4, parameters[2])])
-        solution, cost, information = self._solve(previous, current, start)
-        if not math.isfinite(cost):
-            return float(parameters[0]), 0.0
-        return float(solution[0]), float(information[0])
-
     def upper_expansion(self) -> tuple[float, float]:
         """The last frame's eq. R2 over the region's pixels above the image centre alone, for the expansion
         only (yaw and pitch held at :meth:`step`'s solution), by two Gauss–Newton steps from the whole
@@ -264,15 +243,14 @@ class RotationAlignment:
 
     def _solve(self, previous: np.ndarray, current: np.ndarray, start: np.ndarray
                ) -> tuple[np.ndarray, float, np.ndarray]:
-        """Gauss–Newton on eq. R2 from ``start`` = (yaw, pitch, e) or (yaw, pitch, e_1..e_4) with one
-        expansion per quadrant, at most ``iterations`` times (:func:`~.kernels.rotation_solve`, one compiled
-        pass over the pixels each); returns the parameters, the mean Huber cost and the marginal information
-        on each parameter (at the last linearisation)."""
-        focal, indices, x, y, quadrants = self._grid(current.shape[1:])
+        """Gauss–Newton on eq. R2 from ``start`` = (yaw, pitch, e) or (yaw, pitch, e_1 ... e_K) with one
+        expansion per column block (eq. R5), at most ``iterations`` times (:func:`~.kernels.rotation_solve`, one
+        compiled pass over the pixels each); returns the parameters, the mean Huber cost and the marginal
+        information on each parameter (at the last linearisation)."""
+        focal, indices, x, y, blocks = self._grid(current.shape[1:])
         target = current[0].ravel()[indices]
         start = np.array(start, dtype=float)
-        labels = (quadrants if len(start) == 6 else self._blocks[current.shape[1:]] if len(start) > 6
-                  else np.zeros(len(x), dtype=np.intp))
+        labels = blocks if len(start) > 3 else np.zeros(len(x), dtype=np.intp)
         parameters, information, done = rotation_solve(previous, target, x, y, labels, start, focal, self.robust_scale,
                                                     self.iterations, _DAMPING, _TOLERANCE)
         self.passes += done

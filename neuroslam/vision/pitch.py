@@ -83,9 +83,10 @@ _TOLERANCE = 1e-4  # rad: an update of yaw and pitch below this (0.01 pixel) end
 # the RMS difference of two 8-bit quantised images of one scene (each off by a uniform 1/255 step: variance
 # 1/12 of a step squared, twice): the least residual eq. R4 divides by
 _QUANTISATION = 1.0 / (255.0 * math.sqrt(6.0))
-# eq. R5's column blocks: 16 across the image, 5 degrees of the testbed's 80-degree view each, so a wall
-# parallel to the path changes its depth across a block by a block's width over its distance from the
-# centre (at most a third, beside the central blocks; a quadrant spans half the image)
+# eq. R5's column blocks: 16 across the image, 5 degrees of the testbed's 80-degree view each. A wall parallel
+# to the path stands at a depth inversely proportional to a column's distance from the centre, so across a
+# block its depth changes by the ratio of the block's edges' distances: at most 4/3 from the third block out
+# from the centre (2 beside it, where such a wall is far ahead), against a quadrant's whole half image
 COLUMN_BLOCKS = 16
 _RETRY = math.radians(1)  # a second start from the floor's yaw when it differs from the previous yaw by more
 

@@ -112,7 +112,6 @@ class RotationAlignment:
         # the last frame's information on (yaw, pitch, expansion): each the inverse of its entry of the inverse
         # normal matrix of eq. R2 (the other two free), intensity² per rad² (per unit for e)
         self.information = np.zeros(3)
-        self.expansion = 0.0  # the last frame's expansion e of eq. R1 (a fraction of the image's size)
         self.cost = math.inf  # the last frame's mean Huber cost of eq. R2 at its solution (images in [0, 1])
         self._last: tuple = (None, None, np.zeros(3), False)  # the last step's images, solution, and success
         self._pixels: dict[tuple[int, int], tuple] = {}
@@ -164,7 +163,7 @@ class RotationAlignment:
         if not math.isfinite(cost):
             parameters, information = np.array([floor_yaw, 0.0, 0.0]), np.zeros(3)
         yaw, pitch = float(parameters[0]), float(parameters[1])
-        self.yaw, self.information, self.expansion, self.cost = yaw, information, float(parameters[2]), cost
+        self.yaw, self.information, self.cost = yaw, information, cost
         self._last = (previous, current, parameters, math.isfinite(cost))
         return yaw, pitch
 
@@ -188,7 +187,7 @@ class RotationAlignment:
         if not (self._last[3] and math.isfinite(self.cost)):
             return 0.0
         sigma = max(math.sqrt(2.0 * self.cost), _QUANTISATION)
-        return self.expansion * math.sqrt(max(float(self.information[2]), 0.0)) / sigma
+        return float(self._last[2][2]) * math.sqrt(max(float(self.information[2]), 0.0)) / sigma
 
     def column_yaw(self) -> tuple[float, float]:
         """The last frame's yaw solved again with one expansion per column block (eq. R5: eq. R1 with e taking

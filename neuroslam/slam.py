@@ -195,7 +195,8 @@ class NeuroSLAM(SessionsMixin, StateMixin):
         middle = yaw + yaw_change / 2 + drift
         self._odometry_pose = np.array([x + distance * math.cos(middle), y + distance * math.sin(middle), z + climb,
                                         wrap(float(yaw + yaw_change))])
-        blind_time = dt if motion.observed is not None and motion.observed.blind[0] else 0.0
+        blind = motion.observed is not None and motion.observed.blind[0]  # nothing observed the distance
+        blind_time = dt if blind else 0.0
         # the robot's pose in the map includes this frame's motion
         themap.integrate(distance, yaw_change, climb, drift, blind_time=blind_time)
         may_close_loop, merged, place = True, False, -1
@@ -212,7 +213,9 @@ class NeuroSLAM(SessionsMixin, StateMixin):
                 grid_code, direction_code = self._merge(place, view.relative_yaw, grid_code, direction_code)
                 merged = True
         if self.config.experience_map.loop_closure == "confirmed" and not merged:
-            place = -1 if view.new else self._confirmed_place(view.relative_yaw, float(timestamp))
+            # a blind frame's view places the robot along its path only to within metres (confirmation_blind)
+            refused = view.new or (blind and not self.config.experience_map.confirmation_blind)
+            place = -1 if refused else self._confirmed_place(view.relative_yaw, float(timestamp))
             may_close_loop = place >= 0
             if may_close_loop:
                 grid_code, direction_code = self._relocate(place, view.relative_yaw, grid_code, direction_code)

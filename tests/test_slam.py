@@ -3,9 +3,11 @@
 import math
 
 import numpy as np
+import pytest
 from scipy import ndimage
 
 from neuroslam import NeuroSLAM, SelfMotion
+from neuroslam.vision.motion import Observed
 
 
 def image(seed, shape=(120, 160, 3)):
@@ -50,8 +52,9 @@ def test_estimate_carries_the_state():
     assert estimate.grid_cell.shape == (3,) and estimate.head_direction_cell.shape == (2,)
 
 
-def _square_laps(config, jump):
-    """Two laps of the 40-view square; at the end of the first the odometry over-reads one frame by ``jump`` m."""
+def _square_laps(config, jump, second_lap_observed=None):
+    """Two laps of the 40-view square; at the end of the first the odometry over-reads one frame by ``jump`` m.
+    ``second_lap_observed``: what the self-motion says it observed on the second lap (None: not said)."""
     slam = NeuroSLAM(config)
     views = [image(100 + k) for k in range(40)]
     t, closures = 0.0, 0
@@ -60,7 +63,9 @@ def _square_laps(config, jump):
             t += 0.1
             turning = k % 10 == 9
             speed = 0.0 if turning else 10.0 + (10 * jump if (lap, k) == (0, 38) else 0.0)
-            estimate = slam.step(views[k], t, odometry=SelfMotion(speed, (math.pi / 2) / 0.1 if turning else 0.0))
+            motion = SelfMotion(speed, (math.pi / 2) / 0.1 if turning else 0.0, 0.0,
+                                second_lap_observed if lap == 1 else None)
+            estimate = slam.step(views[k], t, odometry=motion)
             closures += estimate.loop_closure
     return slam, closures
 
@@ -92,6 +97,27 @@ def test_confirmed_loop_closure_corrects_drift_that_the_codes_cannot():
     assert np.median(lap_gaps(confirmed)) < 1.0
 
 
+@pytest.mark.parametrize(("distance", "confirmation_blind", "closes"), [
+    ("floor", False, True), ("held", False, False), ("none", False, False), ("held", True, True)])
+def test_a_loop_is_not_confirmed_where_nothing_observed_the_distance(distance, confirmation_blind, closes):
+    """The drifted square of the test above, its second lap's self-motion saying how it saw the distance. Seen
+    (``floor``), the run of views confirms the place as without that word; where nothing observed the distance
+    (``held``, ``none``), a view places the robot along its path only to within metres
+    (``confirmation_blind``), so no loop is confirmed and the lap makes new experiences 6 m off, unless
+    ``confirmation_blind`` allows it."""
+    from neuroslam.config import Config, ExperienceMapConfig
+
+    config = Config(experience_map=ExperienceMapConfig(
+        loop_closure="confirmed", relaxation="least-squares", confirmation_age=2.0, confirmation_drift=0.2,
+        confirmation_tolerance=1.0, confirmation_window=10, confirmation_matches=7, confirmation_spacing=0.0,
+        confirmation_blind=confirmation_blind))
+    slam, closures = _square_laps(config, jump=6.0, second_lap_observed=Observed(distance, "floor", "floor"))
+    if closes:
+        assert closures >= 1 and slam.experience_map.size < 50
+    else:
+        assert closures == 0 and slam.experience_map.size >= 75
+
+
 def test_trajectory_moves_frames_with_their_experiences():
     slam = NeuroSLAM()
     estimates = []
@@ -106,3 +132,11 @@ def test_trajectory_moves_frames_with_their_experiences():
     at = slam._frame_experiences.view == experience
     np.testing.assert_allclose(moved[at], np.tile([1.0, -2.0, 0.5, 0.0], (at.sum(), 1)), atol=1e-9)
     assert np.abs(moved[~at]).max() == 0
+
+
+def test_confirmation_blind_must_be_true_or_false():
+    from neuroslam.config import ExperienceMapConfig
+    from neuroslam.errors import InvalidParameterError
+
+    with pytest.raises(InvalidParameterError, match="confirmation_blind"):
+        ExperienceMapConfig(confirmation_blind=1)

@@ -207,14 +207,15 @@ class NeuroSLAM(SessionsMixin, StateMixin):
             self._recent.append(entry)
         else:
             self._recent[-1] = entry
-        if not view.new:
+        # a blind frame's view places the robot along its path only to within metres (confirmation_blind):
+        # neither a merge nor a loop closure is confirmed on it
+        refused = view.new or (blind and not self.config.experience_map.confirmation_blind)
+        if not refused:
             place = self._merge_place(view.template_id, view.relative_yaw)
             if place >= 0:
                 grid_code, direction_code = self._merge(place, view.relative_yaw, grid_code, direction_code)
                 merged = True
         if self.config.experience_map.loop_closure == "confirmed" and not merged:
-            # a blind frame's view places the robot along its path only to within metres (confirmation_blind)
-            refused = view.new or (blind and not self.config.experience_map.confirmation_blind)
             place = -1 if refused else self._confirmed_place(view.relative_yaw, float(timestamp))
             may_close_loop = place >= 0
             if may_close_loop:

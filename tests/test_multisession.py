@@ -168,3 +168,29 @@ def test_a_known_start_on_a_view_seen_at_two_places_waits_for_confirmation(tmp_p
     estimates, _ = drive(loaded, square(range(0, 24)))
     assert estimates[0].experience_id >= 40  # not placed at either of view 0's experiences
     assert sum(estimate.merged for estimate in estimates) == 1
+
+
+@pytest.mark.parametrize(("distance", "confirmation_blind", "merges"), [
+    ("floor", False, 1), ("held", False, 0), ("none", False, 0), ("held", True, 1)])
+def test_no_merge_is_confirmed_where_nothing_observed_the_distance(tmp_path, distance, confirmation_blind, merges):
+    """The unknown start of the first test, its frames on the shared square saying how the distance was seen:
+    where nothing observed it (``held``, ``none``) a view places the robot along its path only to within
+    metres, so no merge is confirmed there (the same rule as for a loop closure, ``confirmation_blind``) and
+    the session's map stays apart; seen (``floor``), or with ``confirmation_blind``, it merges once."""
+    from dataclasses import replace
+
+    from neuroslam.config import Config
+    from neuroslam.vision.motion import Observed
+
+    config = Config(experience_map=replace(SQUARE_CONFIG.experience_map, confirmation_blind=confirmation_blind))
+    first = NeuroSLAM(config)
+    drive(first, square())
+    slam = NeuroSLAM.load(first.save(tmp_path / "first.npz"))
+    slam.begin_session()
+    _, t = drive(slam, APPROACH)
+    observed = Observed(distance, "floor", "floor")
+    for view, forward, turn in [(0, 1.0, 0.0), *square(range(1, 40))]:
+        t += 0.1
+        slam.step(VIEWS[view], t, odometry=SelfMotion(forward / 0.1, turn / 0.1, 0.0, observed))
+    assert len(slam.merges) == merges
+    assert len(np.unique(slam.experience_map.components)) == 2 - merges

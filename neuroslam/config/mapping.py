@@ -49,15 +49,17 @@ class ExperienceMapConfig:
             (urban: SLAM ATE 1.59–1.87 m over three runs with imperceptible noise; with 2, 0.79–0.81 m).
             The others only add evidence: hypotheses come from the best match, and whether a view is
             uninformative from its best match's spread.
-        confirmation_blind: a loop closure may be confirmed on a frame whose distance nothing observed
-            (``held`` or ``none``, :class:`~neuroslam.vision.motion.Observed`). False (the default): it is not. A
+        confirmation_blind: a loop closure, or a merge with another session's map, may be confirmed on a frame
+            whose distance nothing observed (``held`` or ``none``, :class:`~neuroslam.vision.motion.Observed`).
+            False (the default): neither is. A
             forward camera recognises a place from a few metres before it, and where the floor shows too little
             to measure the distance, the view is mostly walls and far scene, which change little along the path:
             measured on recorded two-lap drives of four benchmark worlds (gen3:102, 125, 132, 139), the
             closures confirmed on blind frames re-entered experiences made 0.19–1.59 m (median per world) and
             up to 3.45 m from the robot's true place, against 0.07–0.11 m and at most 0.61 m on seen frames
             (2.02 m once), and six of the seven false closures (over 2 m) were blind (docs/generalization.md,
-            the twentieth step). The frames after the stretch, where the floor is seen again, confirm it.
+            the twentieth step). The frames after the stretch, where the floor is seen again, confirm it. A
+            merge moves the whole partial map by where the robot stands, so the same holds for it.
             Only a source that says what it observed is ever blind (not wheels, not the paper's profile
             odometry).
         confirmation_tolerance: m, how far a frame's matched experience may lie from where the

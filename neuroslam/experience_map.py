@@ -415,10 +415,12 @@ class ExperienceMap(MapSessionsMixin):
             self._structure_odometer = self.odometer
             self._settled = False
 
-    def _link(self, source: int, target: int, time: float, *, weight: float = 1.0) -> None:
-        """Link ``source`` → ``target`` with the odometry accumulated since ``source`` (NeuroSLAM eq. 23); ``weight``
-        scales its squared errors in the least-squares map."""
-        dx, dy, dz, dyaw = self.relative
+    def _link(self, source: int, target: int, time: float, *, weight: float = 1.0,
+              relative: np.ndarray | None = None, blind: float | None = None) -> None:
+        """Link ``source`` → ``target`` with the odometry accumulated since ``source`` (NeuroSLAM eq. 23), or with
+        ``relative`` (``target``'s pose in ``source``'s frame) and ``blind`` seconds; ``weight`` scales its
+        squared errors in the least-squares map."""
+        dx, dy, dz, dyaw = self.relative if relative is None else relative
         distance = math.hypot(dx, dy)
         # a link read as no travel (the distance blind) points the way the robot faced halfway along it (eq. M5)
         heading = math.atan2(dy, dx) if distance > 0 else float(wrap(dyaw)) / 2
@@ -427,7 +429,7 @@ class ExperienceMap(MapSessionsMixin):
         # seconds on the session's clock; a link from an experience of an earlier session records 0
         self._link_times.append(time - self.creation_times[source] if self.sessions[source] == self.session else 0.0)
         self._link_weights.append(weight)
-        self._link_blind.append(self._blind_since)
+        self._link_blind.append(self._blind_since if blind is None else blind)
         self._degree.data[source] += 1
         self._degree.data[target] += 1
         self._linked.add((source, target))

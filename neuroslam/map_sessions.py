@@ -57,6 +57,15 @@ class MapSessionsMixin:
         self.relative = np.asarray(relative, dtype=float).copy()
         self._restart_link()
 
+    def close_later(self, source: int, target: int, relative: np.ndarray, time: float) -> None:
+        """A loop closure found after the frame it belongs to (:meth:`NeuroSLAM._close_before_merge`): link
+        ``source`` → ``target`` with ``relative`` (``target``'s pose in ``source``'s frame: x, y, z, yaw; m,
+        rad) as a loop closure (``closure_weight``), counted in :attr:`loop_closures`; ``time``: s, that
+        frame's. The map is solved again at its next relaxation."""
+        self._link(source, target, time, weight=self.config.closure_weight, relative=relative, blind=0.0)
+        self.loop_closures += 1
+        self._settled = False
+
     def move_component(self, component: int, into: int, yaw: float, translation: np.ndarray,
                        grid_codes: np.ndarray, direction_codes: np.ndarray) -> np.ndarray:
         """Merge ``component`` into ``into``: its experiences rotate by ``yaw`` (rad, about z through the

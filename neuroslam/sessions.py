@@ -17,16 +17,70 @@ import numpy as np
 
 from .arrays import GrowingArray
 from .errors import InvalidInputError, InvalidParameterError
-from .geometry import compose, relative, wrap
+from .geometry import compose, inverse, relative, wrap
 from .loop_closure import confirm_place
 from .vision.odometry import VisualOdometry
 
 if TYPE_CHECKING:
     from .slam import NeuroSLAM
 
-__all__ = ["SessionsMixin"]
+__all__ = ["SessionsMixin", "WindowHistory"]
 
 logger = logging.getLogger("neuroslam.slam")
+
+
+class WindowHistory:
+    """The confirmation window's entries since a session began, kept until the session's own map merges into
+    a loaded one (:meth:`SessionsMixin._close_before_merge` tests them again then). One row per entry (about
+    one a metre): its frame index, time (s), odometry pose (x, y, z, yaw; m, rad), view (template id), the
+    other templates its view matched (-1 padded), the view's relative yaw (rad), the map's odometer (m) and
+    whether nothing observed the distance on it."""
+
+    def __init__(self, views: int):
+        self.frames = GrowingArray(0, np.int64)
+        self.times = GrowingArray(0, np.float64)
+        self.poses = GrowingArray(4, np.float64)
+        self.templates = GrowingArray(0, np.int64)
+        self.alternatives = GrowingArray(max(views - 1, 1), np.int64)
+        self.relative_yaws = GrowingArray(0, np.float64)
+        self.odometers = GrowingArray(0, np.float64)
+        self.blind = GrowingArray(0, np.bool_)
+
+    NAMES = ("frames", "times", "poses", "templates", "alternatives", "relative_yaws", "odometers", "blind")
+
+    @property
+    def count(self) -> int:
+        return self.frames.count
+
+    def state_dict(self) -> dict[str, np.ndarray]:
+        """The rows as arrays, by :attr:`NAMES`."""
+        return {name: getattr(self, name).view.copy() for name in self.NAMES}
+
+    @classmethod
+    def from_state(cls, state: dict[str, np.ndarray], views: int) -> WindowHistory:
+        """The history :meth:`state_dict` gave; ValueError if its arrays do not fit together."""
+        history = cls(views)
+        for name in cls.NAMES:
+            template = getattr(history, name)
+            columns = template.data.shape[1] if template.data.ndim == 2 else 0
+            setattr(history, name, GrowingArray.of(state[name], columns, template.data.dtype))
+        if len({getattr(history, name).count for name in cls.NAMES}) != 1:
+            raise ValueError("the window history's arrays differ in length")
+        return history
+
+    def add(self, frame: int, time: float, pose: np.ndarray, template: int, alternatives: tuple[int, ...],
+            relative_yaw: float, odometer: float, blind: bool, *, replace: bool) -> None:
+        """Append an entry, or overwrite the newest (``replace``: the window replaced its newest entry)."""
+        others = np.full(self.alternatives.data.shape[1], -1, dtype=np.int64)
+        others[: len(alternatives)] = alternatives[: len(others)]
+        row = (frame, time, pose, template, others, relative_yaw, odometer, blind)
+        arrays = (self.frames, self.times, self.poses, self.templates, self.alternatives, self.relative_yaws,
+                  self.odometers, self.blind)
+        for array, value in zip(arrays, row, strict=True):
+            if replace and array.count:
+                array.data[array.count - 1] = value
+            else:
+                array.append(value)
 
 
 class SessionsMixin:
@@ -64,6 +118,8 @@ class SessionsMixin:
         self.frames = 0
         self.last = None
         self.merges = []
+        self.closures_before_merge = []
+        self._unmerged = WindowHistory(self.config.experience_map.confirmation_views)
         self.experience_map.begin_session()
         self._known_start = start == "known"
         logger.info("session %d begins (%s start) with %d templates, %d experiences in %d maps",
@@ -117,6 +173,7 @@ class SessionsMixin:
             return
         place = int(experiences[-1])
         themap.enter(place, np.array([0.0, 0.0, 0.0, view.relative_yaw]))
+        self._unmerged = None  # the robot is in the loaded map: its map will not merge into it
         direction = themap.direction_codes[place].copy()
         direction[0] += view.relative_yaw / self.head_direction.yaw_cell_size
         self.grid_cells.network.reset(themap.grid_codes[place])
@@ -215,12 +272,81 @@ class SessionsMixin:
         themap.move_component(moving, staying, yaw, translation, grid_codes, direction_codes)
         place = self._fuse_duplicates(moved, place)
         self._since_closure = 0.0
+        self.closures_before_merge = []
+        if robot_moves:
+            self._close_before_merge()
         logger.info("merged map %d (%d experiences, %d views) into map %d at experience %d: yaw %.1f deg, "
                     "shift (%.2f, %.2f, %.2f) m", moving, len(moved), len(views), staying, place, math.degrees(yaw),
                     *translation)
         if robot_moves:
             return self._relocate(place, relative_yaw, grid_code, direction_code)
         return grid_code, direction_code
+
+    def _close_before_merge(self) -> None:
+        """The loop closures a merge makes possible among the frames driven before it (issue 23's multisession).
+
+        Before the merge the session's own map was joined to nothing: where its frames re-drove places of the
+        loaded map, no loop could close (the merge's test, without a search radius, counts no view seen at
+        several places), and that part of its map hangs from the merge alone, its far end as far off as the
+        odometry drifted. Now the robot's place in the loaded map is known at the merge, and at each earlier
+        frame to within the odometry's drift over the distance between them. So every confirmation window
+        entry since the session began is tested again, newest first, with the loop-closure rule itself
+        (:func:`~neuroslam.loop_closure.confirm_place` over the window of that entry and the
+        ``confirmation_window - 1`` after it, driven backwards so that the entry is its newest frame; its
+        view's relative yaw, the
+        loaded maps' experiences eligible, the search radius ``confirmation_tolerance`` plus
+        ``confirmation_drift`` per metre driven from the merge or the last closure found, and no closure on
+        a blind entry unless ``confirmation_blind``), as the frames would have been tested had the maps been
+        one. A confirmed entry links the session's experience its frame was at to the confirmed place, as a
+        live loop closure would (:meth:`ExperienceMap.close_later`: the robot there, facing its yaw plus
+        the view's relative yaw); an experience is linked once. The found closures are kept, (frame,
+        experience), in :attr:`closures_before_merge` for scoring."""
+        history, self._unmerged = self._unmerged, None
+        config = self.config.experience_map
+        if history is None or history.count < config.confirmation_matches:
+            return
+        themap = self.experience_map
+        trajectory = self.trajectory()  # every frame in the merged map
+        anchors = self._frame_experiences.view
+        offsets = self._frame_offsets.view
+        mine = themap.sessions == themap.session
+        eligible = ~mine & (themap.components == themap.component)
+        correction = np.zeros(4)  # the last closure found: where it put its frame against the trajectory
+        odometer = themap.odometer
+        linked = set()
+        for entry in range(history.count - 1, -1, -1):
+            frame = int(history.frames.view[entry])
+            if frame >= len(anchors):  # the merging frame itself
+                continue
+            source = int(anchors[frame])
+            if not mine[source] or source in linked or (history.blind.view[entry] and not config.confirmation_blind):
+                continue
+            # the window of the entry and those after it, driven backwards: the entry is its newest frame
+            window = np.arange(min(history.count, entry + config.confirmation_window) - 1, entry - 1, -1)
+            if len(window) < config.confirmation_matches:
+                continue
+            since = odometer - float(history.odometers.view[entry])
+            relative_yaw = float(history.relative_yaws.view[entry])
+            place = confirm_place(
+                history.poses.view[window], history.templates.view[window], relative_yaw, themap.poses,
+                themap.experiences_of, eligible, compose(correction, trajectory[frame]),
+                window_alternatives=[tuple(int(v) for v in row if v >= 0) for row in history.alternatives.view[window]],
+                radius=config.confirmation_tolerance + config.confirmation_drift * since,
+                height_radius=config.confirmation_tolerance + config.confirmation_climb_error * since,
+                tolerance=config.confirmation_tolerance, matches=config.confirmation_matches,
+                climb_error=config.confirmation_climb_error)
+            if place < 0 or themap.components[place] != themap.component:
+                continue
+            facing = np.array([0.0, 0.0, 0.0, relative_yaw])
+            themap.close_later(source, place, compose(offsets[frame], inverse(facing)),
+                               float(history.times.view[entry]))
+            correction = compose(compose(themap.poses[place], facing), inverse(trajectory[frame]))
+            odometer = float(history.odometers.view[entry])
+            linked.add(source)
+            self.closures_before_merge.append((frame, place))
+        if self.closures_before_merge:
+            logger.info("the merge confirmed %d loop closures among the %d frames before it",
+                        len(self.closures_before_merge), int(history.frames.view[-1]) + 1)
 
     def _fuse_duplicates(self, moved: np.ndarray, place: int) -> int:
         """After a merge: each moved experience with the same view as an experience of the map it joined,

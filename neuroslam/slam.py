@@ -37,7 +37,7 @@ from .estimate import Estimate
 from .experience_map import ExperienceMap
 from .geometry import compose, wrap
 from .loop_closure import confirm_place
-from .sessions import SessionsMixin
+from .sessions import SessionsMixin, WindowHistory
 from .state import MAP_FILE, StateMixin
 from .vision.ground_motion import blurred_with_gradients
 from .vision.local_view import LocalViewCells
@@ -102,6 +102,9 @@ class NeuroSLAM(SessionsMixin, StateMixin):
         self.frames = 0
         self.last: Estimate | None = None
         self.merges: list[tuple[int, int]] = []  # this session's merges: (frame index, experience merged at)
+        # the loop closures the latest merge found among the frames before it: (frame index, experience)
+        self.closures_before_merge: list[tuple[int, int]] = []
+        self._unmerged: WindowHistory | None = None  # window entries until the session's map merges
         self._known_start = False  # the next frame should find the robot in the loaded map (begin_session)
         self.map_extra: dict[str, np.ndarray] = {}  # the caller's arrays kept with a loaded map (see save)
         self.map_metadata: dict = {}  # the notes kept with a loaded map
@@ -203,10 +206,14 @@ class NeuroSLAM(SessionsMixin, StateMixin):
         self._since_closure += distance
         entry = (self._odometry_pose, view.template_id,
                  view.alternatives[: self.config.experience_map.confirmation_views - 1])
-        if len(self._recent) < 2 or self._kept(self._recent[-1][0], self._recent[-2][0]):
+        kept = len(self._recent) < 2 or self._kept(self._recent[-1][0], self._recent[-2][0])
+        if kept:
             self._recent.append(entry)
         else:
             self._recent[-1] = entry
+        if self._unmerged is not None:
+            self._unmerged.add(self.frames, float(timestamp), *entry, view.relative_yaw, themap.odometer, blind,
+                               replace=not kept)
         # a blind frame's view places the robot along its path only to within metres (confirmation_blind):
         # neither a merge nor a loop closure is confirmed on it
         refused = view.new or (blind and not self.config.experience_map.confirmation_blind)

@@ -20,6 +20,7 @@ from .config import Config
 from .errors import InvalidParameterError
 from .estimate import Estimate
 from .maps import MapFileError, read_map, write_map
+from .sessions import WindowHistory
 from .vision.odometry import SelfMotion
 
 if TYPE_CHECKING:
@@ -67,6 +68,8 @@ class StateMixin:
             "slam.frame_offsets": self._frame_offsets.view.copy(),
             "slam.frames": np.int64(self.frames),
         })
+        if self._unmerged is not None:  # a session whose own map has not merged yet
+            state.update({f"slam.unmerged.{name}": array for name, array in self._unmerged.state_dict().items()})
         if self.last is not None:
             last = self.last
             state.update({
@@ -136,6 +139,11 @@ class StateMixin:
             self.frames = int(state["slam.frames"])
             if len(self._frame_experiences.view) and self._frame_experiences.view.max() >= self.experience_map.size:
                 raise ValueError("a frame names an experience that does not exist")
+            unmerged = {key.removeprefix("slam.unmerged."): value for key, value in state.items()
+                        if key.startswith("slam.unmerged.")}
+            self._unmerged = (WindowHistory.from_state(unmerged, self.config.experience_map.confirmation_views)
+                              if unmerged else None)
+            self.closures_before_merge = []
             self.last = None
             if "last.timestamp" in state:
                 speed, yaw_rate, climb_rate = (float(value) for value in state["last.self_motion"])

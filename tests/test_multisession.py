@@ -194,3 +194,45 @@ def test_no_merge_is_confirmed_where_nothing_observed_the_distance(tmp_path, dis
         slam.step(VIEWS[view], t, odometry=SelfMotion(forward / 0.1, turn / 0.1, 0.0, observed))
     assert len(slam.merges) == merges
     assert len(np.unique(slam.experience_map.components)) == 2 - merges
+
+
+def test_the_merge_closes_the_loops_its_session_drove_before_it(tmp_path):
+    """A loaded map holds the square and, 40 m on, a look-alike corridor with the views of the square's first
+    half. The second session starts on the square at its view 0, misreads its turn by 30° at view 10, and
+    cannot merge on the first half (each view was seen at two places of the loaded map: no evidence without
+    a search radius); it merges on the second half, where the views are the square's alone. The merge puts
+    the session's first side 30° off about view 10, up to 5 m from the square's. Then the place is known:
+    the frames before the merge are tested again as loop closures, within the drift's radius of where the
+    merge puts them (which leaves the look-alike out), and the session's experiences of the first side are
+    linked to the square's: the least-squares map puts them back on the square."""
+    first = NeuroSLAM(SQUARE_CONFIG)
+    out = [(200 + k, 1.0, 0.0) for k in range(40)]  # on from the square's end, along its first side
+    corridor = [(k, 1.0, 0.0) for k in range(20)]  # the views of the square's first half again
+    drive(first, [*square(), *out, *corridor])
+    truth = first.experience_map.poses.copy()
+    slam = NeuroSLAM.load(first.save(tmp_path / "first.npz"))
+    slam.begin_session()
+    drifting = [(view, forward, turn + (math.radians(1.0) if view < 20 else 0.0))
+                for view, forward, turn in square(range(40))]
+    estimates, _ = drive(slam, drifting)
+    merged = [index for index, estimate in enumerate(estimates) if estimate.merged]
+    assert len(merged) == 1 and merged[0] >= 20  # not on the look-alike half
+    themap = slam.experience_map
+    before = np.flatnonzero(themap.sessions == 1)  # the session's own experiences the merge did not fuse
+    assert len(before) >= 5
+    # each closure found afterwards joins a frame before the merge to the square's experience of its view
+    assert len(slam.closures_before_merge) >= 1
+    for frame, place in slam.closures_before_merge:
+        assert frame < merged[0] and place < 40 and themap.template_ids[place] == estimates[frame].template_id
+    # the session's experiences of the first side lie on the square, at the experience of their view
+    gaps = np.linalg.norm(themap.poses[before, :2] - truth[themap.template_ids[before], :2], axis=1)
+    assert gaps.max() < 0.5
+    # saved before its merge, the session continues exactly (the frames it would test again are kept)
+    again = NeuroSLAM.load(first.save(tmp_path / "first.npz"))
+    again.begin_session()
+    _, t = drive(again, drifting[:15])
+    again = NeuroSLAM.load(again.save(tmp_path / "unmerged.npz"))
+    continued, _ = drive(again, drifting[15:], t=t)
+    for a, b in zip(estimates[15:], continued, strict=True):
+        np.testing.assert_array_equal(a.pose, b.pose)
+    assert again.closures_before_merge == slam.closures_before_merge

@@ -312,6 +312,10 @@ def _note_events(run: Run, estimate, frame: int) -> None:
         if happened:
             poses, levels = run.book.of([estimate.experience_id])
             events.append((frame, poses[0, :3], levels[0]))
+    if estimate.merged:  # the loop closures the merge found among the frames before it, scored at their frames
+        for earlier, experience in run.slam.closures_before_merge:
+            poses, levels = run.book.of([experience])
+            run.closures.append((earlier, poses[0, :3], levels[0]))
 
 
 def run(stream: FrameStream, slam: NeuroSLAM, *, odometry: str = "visual", book: ExperienceTruth | None = None,

@@ -157,6 +157,12 @@ class ExperienceMap(MapSessionsMixin):
         the least-squares map (eq. M5 of :mod:`neuroslam.relaxation`, :meth:`length_weights`)."""
         return self._link_blind.view
 
+    @property
+    def blind_since(self) -> float:
+        """s since the current experience on which nothing observed the distance (what a link made now carries
+        for eq. M5)."""
+        return self._blind_since
+
     def length_weights(self) -> np.ndarray:
         """(L,) each link's weight along its direction of travel in the least-squares map (eq. M5): its weight
         times s² / (s² + (b t)²), s = ``link_length_error`` (m, a link's length where its distance was seen),

@@ -57,12 +57,17 @@ class MapSessionsMixin:
         self.relative = np.asarray(relative, dtype=float).copy()
         self._restart_link()
 
-    def close_later(self, source: int, target: int, relative: np.ndarray, time: float) -> None:
+    def linked(self, first: int, second: int) -> bool:
+        """A link joins the two experiences (either way)."""
+        return (first, second) in self._linked or (second, first) in self._linked
+
+    def close_later(self, source: int, target: int, relative: np.ndarray, time: float, blind: float) -> None:
         """A loop closure found after the frame it belongs to (:meth:`NeuroSLAM._close_before_merge`): link
         ``source`` → ``target`` with ``relative`` (``target``'s pose in ``source``'s frame: x, y, z, yaw; m,
         rad) as a loop closure (``closure_weight``), counted in :attr:`loop_closures`; ``time``: s, that
-        frame's. The map is solved again at its next relaxation."""
-        self._link(source, target, time, weight=self.config.closure_weight, relative=relative, blind=0.0)
+        frame's; ``blind``: s between ``source`` and that frame on which nothing observed the distance (eq.
+        M5). The map is solved again at its next relaxation."""
+        self._link(source, target, time, weight=self.config.closure_weight, relative=relative, blind=blind)
         self.loop_closures += 1
         self._settled = False
 

@@ -30,11 +30,12 @@ logger = logging.getLogger("neuroslam.slam")
 
 
 class WindowHistory:
-    """The confirmation window's entries since a session began, kept until the session's own map merges into
-    a loaded one (:meth:`SessionsMixin._close_before_merge` tests them again then). One row per entry (about
-    one a metre): its frame index, time (s), odometry pose (x, y, z, yaw; m, rad), view (template id), the
-    other templates its view matched (-1 padded), the view's relative yaw (rad), the map's odometer (m) and
-    whether nothing observed the distance on it."""
+    """The confirmation window's entries since a session began, kept until the session's own map first merges
+    into a loaded one (:meth:`SessionsMixin._close_before_merge` tests them again then; a later merge of the
+    same session looks back no further). One row per entry (about one a metre): its frame index, time (s),
+    odometry pose (x, y, z, yaw; m, rad), view (template id), the other templates its view matched (-1
+    padded), the view's relative yaw (rad), the map's odometer (m), whether nothing observed the distance on
+    it, and the seconds nothing observed it since the experience the robot was at (eq. M5)."""
 
     def __init__(self, views: int):
         self.frames = GrowingArray(0, np.int64)
@@ -45,8 +46,10 @@ class WindowHistory:
         self.relative_yaws = GrowingArray(0, np.float64)
         self.odometers = GrowingArray(0, np.float64)
         self.blind = GrowingArray(0, np.bool_)
+        self.blind_seconds = GrowingArray(0, np.float64)
 
-    NAMES = ("frames", "times", "poses", "templates", "alternatives", "relative_yaws", "odometers", "blind")
+    NAMES = ("frames", "times", "poses", "templates", "alternatives", "relative_yaws", "odometers", "blind",
+             "blind_seconds")
 
     @property
     def count(self) -> int:
@@ -57,8 +60,9 @@ class WindowHistory:
         return {name: getattr(self, name).view.copy() for name in self.NAMES}
 
     @classmethod
-    def from_state(cls, state: dict[str, np.ndarray], views: int) -> WindowHistory:
-        """The history :meth:`state_dict` gave; ValueError if its arrays do not fit together."""
+    def from_state(cls, state: dict[str, np.ndarray], views: int, frames: int, templates: int) -> WindowHistory:
+        """The history :meth:`state_dict` gave, of a session at ``frames`` frames with ``templates`` views;
+        ValueError if its arrays do not fit together or name a frame or view that does not exist."""
         history = cls(views)
         for name in cls.NAMES:
             template = getattr(history, name)
@@ -66,17 +70,21 @@ class WindowHistory:
             setattr(history, name, GrowingArray.of(state[name], columns, template.data.dtype))
         if len({getattr(history, name).count for name in cls.NAMES}) != 1:
             raise ValueError("the window history's arrays differ in length")
+        entries = history.frames.view
+        if len(entries) and (entries.min() < 0 or entries.max() >= frames or np.any(np.diff(entries) <= 0)):
+            raise ValueError("the window history names frames out of order or that do not exist")
+        views_named = np.concatenate([history.templates.view, history.alternatives.view.ravel()])
+        if np.any(views_named >= templates) or np.any(history.templates.view < 0):
+            raise ValueError("the window history names a view that does not exist")
         return history
 
     def add(self, frame: int, time: float, pose: np.ndarray, template: int, alternatives: tuple[int, ...],
-            relative_yaw: float, odometer: float, blind: bool, *, replace: bool) -> None:
+            relative_yaw: float, odometer: float, blind: bool, blind_seconds: float, *, replace: bool) -> None:
         """Append an entry, or overwrite the newest (``replace``: the window replaced its newest entry)."""
         others = np.full(self.alternatives.data.shape[1], -1, dtype=np.int64)
         others[: len(alternatives)] = alternatives[: len(others)]
-        row = (frame, time, pose, template, others, relative_yaw, odometer, blind)
-        arrays = (self.frames, self.times, self.poses, self.templates, self.alternatives, self.relative_yaws,
-                  self.odometers, self.blind)
-        for array, value in zip(arrays, row, strict=True):
+        row = (frame, time, pose, template, others, relative_yaw, odometer, blind, blind_seconds)
+        for array, value in zip((getattr(self, name) for name in self.NAMES), row, strict=True):
             if replace and array.count:
                 array.data[array.count - 1] = value
             else:
@@ -273,8 +281,10 @@ class SessionsMixin:
         place = self._fuse_duplicates(moved, place)
         self._since_closure = 0.0
         self.closures_before_merge = []
-        if robot_moves:
+        if robot_moves and self.config.experience_map.loop_closure == "confirmed":
             self._close_before_merge()
+        elif robot_moves:
+            self._unmerged = None
         logger.info("merged map %d (%d experiences, %d views) into map %d at experience %d: yaw %.1f deg, "
                     "shift (%.2f, %.2f, %.2f) m", moving, len(moved), len(views), staying, place, math.degrees(yaw),
                     *translation)
@@ -290,7 +300,9 @@ class SessionsMixin:
         several places), and that part of its map hangs from the merge alone, its far end as far off as the
         odometry drifted. Now the robot's place in the loaded map is known at the merge, and at each earlier
         frame to within the odometry's drift over the distance between them. So every confirmation window
-        entry since the session began is tested again, newest first, with the loop-closure rule itself
+        entry since the session began (but the newest ``confirmation_matches - 1``, whose windows are too short:
+        the merge's own window, whose duplicates were fused) is tested again, newest first, with the
+        loop-closure rule itself (``loop_closure = "confirmed"`` only)
         (:func:`~neuroslam.loop_closure.confirm_place` over the window of that entry and the
         ``confirmation_window - 1`` after it, driven backwards so that the entry is its newest frame; its
         view's relative yaw, the
@@ -299,7 +311,8 @@ class SessionsMixin:
         a blind entry unless ``confirmation_blind``), as the frames would have been tested had the maps been
         one. A confirmed entry links the session's experience its frame was at to the confirmed place, as a
         live loop closure would (:meth:`ExperienceMap.close_later`: the robot there, facing its yaw plus
-        the view's relative yaw); an experience is linked once. The found closures are kept, (frame,
+        the view's relative yaw); an experience is linked once, and not to a place it is linked to already.
+        Only the session's first merge that moves its map looks back. The found closures are kept, (frame,
         experience), in :attr:`closures_before_merge` for scoring."""
         history, self._unmerged = self._unmerged, None
         config = self.config.experience_map
@@ -325,21 +338,17 @@ class SessionsMixin:
             window = np.arange(min(history.count, entry + config.confirmation_window) - 1, entry - 1, -1)
             if len(window) < config.confirmation_matches:
                 continue
-            since = odometer - float(history.odometers.view[entry])
             relative_yaw = float(history.relative_yaws.view[entry])
-            place = confirm_place(
-                history.poses.view[window], history.templates.view[window], relative_yaw, themap.poses,
-                themap.experiences_of, eligible, compose(correction, trajectory[frame]),
-                window_alternatives=[tuple(int(v) for v in row if v >= 0) for row in history.alternatives.view[window]],
-                radius=config.confirmation_tolerance + config.confirmation_drift * since,
-                height_radius=config.confirmation_tolerance + config.confirmation_climb_error * since,
-                tolerance=config.confirmation_tolerance, matches=config.confirmation_matches,
-                climb_error=config.confirmation_climb_error)
-            if place < 0 or themap.components[place] != themap.component:
+            place = self._confirm(
+                history.poses.view[window], history.templates.view[window],
+                [tuple(int(other) for other in row if other >= 0) for row in history.alternatives.view[window]],
+                relative_yaw, eligible, compose(correction, trajectory[frame]),
+                odometer - float(history.odometers.view[entry]))
+            if place < 0 or themap.components[place] != themap.component or themap.linked(source, place):
                 continue
             facing = np.array([0.0, 0.0, 0.0, relative_yaw])
             themap.close_later(source, place, compose(offsets[frame], inverse(facing)),
-                               float(history.times.view[entry]))
+                               float(history.times.view[entry]), float(history.blind_seconds.view[entry]))
             correction = compose(compose(themap.poses[place], facing), inverse(trajectory[frame]))
             odometer = float(history.odometers.view[entry])
             linked.add(source)

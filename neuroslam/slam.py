@@ -102,7 +102,8 @@ class NeuroSLAM(SessionsMixin, StateMixin):
         self.frames = 0
         self.last: Estimate | None = None
         self.merges: list[tuple[int, int]] = []  # this session's merges: (frame index, experience merged at)
-        # the loop closures the latest merge found among the frames before it: (frame index, experience)
+        # the loop closures the latest merge found among the frames before it: (frame index, experience); read
+        # on the merging frame (a later merge, a new session or loading a map empties it)
         self.closures_before_merge: list[tuple[int, int]] = []
         self._unmerged: WindowHistory | None = None  # window entries until the session's map merges
         self._known_start = False  # the next frame should find the robot in the loaded map (begin_session)
@@ -213,7 +214,7 @@ class NeuroSLAM(SessionsMixin, StateMixin):
             self._recent[-1] = entry
         if self._unmerged is not None:
             self._unmerged.add(self.frames, float(timestamp), *entry, view.relative_yaw, themap.odometer, blind,
-                               replace=not kept)
+                               themap.blind_since, replace=not kept)
         # a blind frame's view places the robot along its path only to within metres (confirmation_blind):
         # neither a merge nor a loop closure is confirmed on it
         refused = view.new or (blind and not self.config.experience_map.confirmation_blind)
@@ -294,15 +295,23 @@ class NeuroSLAM(SessionsMixin, StateMixin):
         since the robot was last on an old experience (``confirmation_drift`` per metre, and
         ``confirmation_climb_error`` per metre for heights).
         """
-        config = self.config.experience_map
         themap = self.experience_map
         eligible = self._old(time) & (themap.components == themap.component)
+        return self._confirm(np.array([entry[0] for entry in self._recent]),
+                             np.array([entry[1] for entry in self._recent]), [entry[2] for entry in self._recent],
+                             relative_yaw, eligible, themap.robot_pose(), self._since_closure)
+
+    def _confirm(self, poses: np.ndarray, templates: np.ndarray, alternatives: list, relative_yaw: float,
+                 eligible: np.ndarray, robot: np.ndarray, since: float) -> int:
+        """:func:`~neuroslam.loop_closure.confirm_place` over a window (odometry poses, views and their other
+        matching templates, the newest last) with this configuration's tolerances, the search radius grown by
+        ``since`` metres driven without a loop closure; the confirmed experience, or -1."""
+        config = self.config.experience_map
         return confirm_place(
-            np.array([entry[0] for entry in self._recent]), np.array([entry[1] for entry in self._recent]),
-            relative_yaw, themap.poses, themap.experiences_of, eligible, themap.robot_pose(),
-            window_alternatives=[entry[2] for entry in self._recent],
-            radius=config.confirmation_tolerance + config.confirmation_drift * self._since_closure,
-            height_radius=config.confirmation_tolerance + config.confirmation_climb_error * self._since_closure,
+            poses, templates, relative_yaw, self.experience_map.poses, self.experience_map.experiences_of,
+            eligible, robot, window_alternatives=alternatives,
+            radius=config.confirmation_tolerance + config.confirmation_drift * since,
+            height_radius=config.confirmation_tolerance + config.confirmation_climb_error * since,
             tolerance=config.confirmation_tolerance, matches=config.confirmation_matches,
             climb_error=config.confirmation_climb_error)
 

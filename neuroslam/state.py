@@ -141,8 +141,8 @@ class StateMixin:
                 raise ValueError("a frame names an experience that does not exist")
             unmerged = {key.removeprefix("slam.unmerged."): value for key, value in state.items()
                         if key.startswith("slam.unmerged.")}
-            self._unmerged = (WindowHistory.from_state(unmerged, self.config.experience_map.confirmation_views)
-                              if unmerged else None)
+            self._unmerged = (WindowHistory.from_state(unmerged, self.config.experience_map.confirmation_views,
+                                                       self.frames, self.local_view.count) if unmerged else None)
             self.closures_before_merge = []
             self.last = None
             if "last.timestamp" in state:

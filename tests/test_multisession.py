@@ -236,3 +236,43 @@ def test_the_merge_closes_the_loops_its_session_drove_before_it(tmp_path):
     for a, b in zip(estimates[15:], continued, strict=True):
         np.testing.assert_array_equal(a.pose, b.pose)
     assert again.closures_before_merge == slam.closures_before_merge
+
+
+def _look_back_setup(tmp_path, config):
+    """The look-alike scene of the test above, with ``config``: the loaded map and the drifting session."""
+    first = NeuroSLAM(config)
+    drive(first, [*square(), *[(200 + k, 1.0, 0.0) for k in range(40)], *[(k, 1.0, 0.0) for k in range(20)]])
+    slam = NeuroSLAM.load(first.save(tmp_path / "first.npz"))
+    slam.begin_session()
+    drifting = [(view, forward, turn + (math.radians(1.0) if view < 20 else 0.0))
+                for view, forward, turn in square(range(40))]
+    return slam, drifting
+
+
+def test_the_paper_rule_merges_without_looking_back(tmp_path):
+    """With NeuroSLAM eq. 22's code match for loop closures (``loop_closure = "code"``, the paper presets) a
+    merge is confirmed as before, but the frames before it are not tested again: there is no window rule for
+    loops to test them with."""
+    from dataclasses import replace
+
+    from neuroslam.config import Config
+
+    slam, drifting = _look_back_setup(tmp_path, Config(
+        experience_map=replace(SQUARE_CONFIG.experience_map, loop_closure="code", relaxation="passes")))
+    estimates, _ = drive(slam, drifting)
+    assert sum(estimate.merged for estimate in estimates) == 1
+    assert slam.closures_before_merge == [] and slam._unmerged is None
+
+
+def test_a_window_history_that_names_what_does_not_exist_is_refused(tmp_path):
+    """A saved session whose kept window entries name a frame it has not had, or a view it does not hold,
+    does not load."""
+    slam, drifting = _look_back_setup(tmp_path, SQUARE_CONFIG)
+    drive(slam, drifting[:12])
+    state = slam.state_dict()
+    assert len(state["slam.unmerged.frames"]) >= 10
+    for name, bad in (("slam.unmerged.frames", slam.frames), ("slam.unmerged.templates", 10_000)):
+        broken = {key: value.copy() for key, value in state.items()}
+        broken[name][-1] = bad
+        with pytest.raises(ValueError, match="window history"):
+            NeuroSLAM(SQUARE_CONFIG).load_state_dict(broken)

@@ -157,3 +157,23 @@ def test_on_frame_sees_every_frame_after_its_step():
     result = run(ListStream(POSES[:12]), NeuroSLAM("sim"), progress=False, on_frame=keep)
     assert seen == [(index, index / RATE, index + 1) for index in range(12)]
     np.testing.assert_array_equal(result.times, np.arange(12) / RATE)
+
+
+def test_the_closures_a_merge_found_before_it_are_scored_at_their_own_frames():
+    """On a merging frame the runner keeps each loop closure the merge found among earlier frames with the
+    truth of the experience it joined, at the earlier frame (where a false one is judged)."""
+    from types import SimpleNamespace
+
+    from neuroslam.lab.runner import _note_events
+
+    truths = {7: [1.0, 2.0, 0.0], 9: [3.0, 4.0, 3.0]}
+    book = SimpleNamespace(of=lambda ids: (np.array([[*truths[int(i)], 0.0] for i in ids]),
+                                           np.array([int(truths[int(i)][2] > 1) for i in ids])))
+    history = SimpleNamespace(book=book, closures=[], merges=[],
+                              slam=SimpleNamespace(closures_before_merge=[(3, 7), (5, 9)]))
+    _note_events(history, SimpleNamespace(loop_closure=False, merged=False, experience_id=7), 40)
+    assert history.closures == [] and history.merges == []
+    _note_events(history, SimpleNamespace(loop_closure=False, merged=True, experience_id=9), 41)
+    assert [frame for frame, _, _ in history.merges] == [41]
+    assert [(frame, list(pose), level) for frame, pose, level in history.closures] == [
+        (3, [1.0, 2.0, 0.0], 0), (5, [3.0, 4.0, 3.0], 1)]

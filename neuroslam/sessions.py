@@ -299,21 +299,20 @@ class SessionsMixin:
         loaded map, no loop could close (the merge's test, without a search radius, counts no view seen at
         several places), and that part of its map hangs from the merge alone, its far end as far off as the
         odometry drifted. Now the robot's place in the loaded map is known at the merge, and at each earlier
-        frame to within the odometry's drift over the distance between them. So every confirmation window
-        entry since the session began (but the newest ``confirmation_matches - 1``, whose windows are too short:
-        the merge's own window, whose duplicates were fused) is tested again, newest first, with the
-        loop-closure rule itself (``loop_closure = "confirmed"`` only)
-        (:func:`~neuroslam.loop_closure.confirm_place` over the window of that entry and the
-        ``confirmation_window - 1`` after it, driven backwards so that the entry is its newest frame; its
-        view's relative yaw, the
-        loaded maps' experiences eligible, the search radius ``confirmation_tolerance`` plus
-        ``confirmation_drift`` per metre driven from the merge or the last closure found, and no closure on
-        a blind entry unless ``confirmation_blind``), as the frames would have been tested had the maps been
-        one. A confirmed entry links the session's experience its frame was at to the confirmed place, as a
-        live loop closure would (:meth:`ExperienceMap.close_later`: the robot there, facing its yaw plus
-        the view's relative yaw); an experience is linked once, and not to a place it is linked to already.
-        Only the session's first merge that moves its map looks back. The found closures are kept, (frame,
-        experience), in :attr:`closures_before_merge` for scoring."""
+        frame to within the odometry's drift over the distance between them. So the confirmation window's
+        entries since the session began are tested again, newest first, as the frames would have been tested
+        had the maps been one: by :func:`~neuroslam.loop_closure.confirm_place` (the ``confirmed`` rule's test;
+        only under that rule) over the window of the entry and the ``confirmation_window - 1`` after it, driven
+        backwards so that the entry is its newest frame, with its view's relative yaw, the loaded maps'
+        experiences eligible, and the search radius ``confirmation_tolerance`` plus ``confirmation_drift`` per
+        metre driven from the merge or from the last closure found. A blind entry is refused unless
+        ``confirmation_blind``; the newest ``confirmation_matches - 1`` entries have windows too short (they
+        are the merge's own window, whose duplicates were fused). A confirmed entry links the session's
+        experience its frame was at to the confirmed place as a live loop closure would
+        (:meth:`ExperienceMap.close_later`: the robot there, facing its yaw plus the view's relative yaw); an
+        experience is linked once, and not to a place it is linked to already. Only the session's first merge
+        that moves its map looks back. The closures found are kept, (frame, experience), in
+        :attr:`closures_before_merge` for scoring."""
         history, self._unmerged = self._unmerged, None
         config = self.config.experience_map
         if history is None or history.count < config.confirmation_matches:

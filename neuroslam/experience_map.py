@@ -392,8 +392,7 @@ class ExperienceMap(MapSessionsMixin):
 
     def _closes_loop(self, experience: int) -> bool:
         """Re-entering ``experience`` would close a loop: it is neither the current one nor linked to it."""
-        return (experience >= 0 and experience != self.current and (self.current, experience) not in self._linked
-                and (experience, self.current) not in self._linked)
+        return experience >= 0 and experience != self.current and not self.linked(self.current, experience)
 
     # graph ----------------------------------------------------------------------------------------------
     def _create(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float,

@@ -301,3 +301,42 @@ def test_height_up_and_down_the_car_park_ramp():
     assert true_transitions == 4  # up the ramp and down again
     assert found == true_transitions
     assert np.max(np.abs(errors)) < 0.3
+
+
+def _bend_odometry(speeds, dt=0.1):
+    """A ``ground`` odometry whose observed speeds (m/s, one a frame ``dt`` apart, oldest first) are
+    ``speeds``, as eq. R6 keeps them."""
+    odometry = VisualOdometry(VisualOdometryConfig(), horizontal_fov=FOV,
+                              vertical_fov=2 * math.atan(math.tan(FOV / 2) * 0.75))
+    for speed in speeds:
+        odometry._readings.append((odometry._travelled, speed))
+        odometry._travelled += speed * dt
+    odometry._speed = speeds[-1]
+    return odometry
+
+
+# gen3:125's first descent, replayed (frames 4179-4206 of `neuroslam record gen3:125 --laps 2`): leaving a turn,
+# the floor read its speed within 1 % up to 0.9 m before the top, then its far rows took in the ramp dropping
+# away; the true speed stayed 0.99-1.01 m/s
+_LEAVING_A_TURN = [0.72, 0.75, 0.79, 0.82, 0.85, 0.88, 0.90, 0.93, 0.95, 0.96, 0.97, 0.99, 0.99, 0.99, 1.00, 0.99,
+                   0.99, 1.00, 0.99]
+_BENT_DOWN = [0.90, 0.79, 0.66, 0.69, 0.67, 0.72, 0.57, 0.58, 0.62]
+# its first climb (frames 2264-2291): the floor ahead rising read up to 7 % long; true 0.99 m/s
+_BENT_UP = [1.01, 1.03, 1.01, 1.02, 1.02, 1.04, 1.05, 1.05, 1.07, 1.07]
+
+
+def test_a_transition_holds_the_speed_read_before_the_bend_came_into_view():
+    """Eq. R6: the held speed is the upper quartile of the last near floor's reach of readings before a bend
+    down (a ramp's top, read short) and the lower quartile before a bend up (a ramp's foot, read long); the
+    last reading held instead was 0.62 and 1.07 m/s on these two. A bend of 0 or a reversing robot keeps the
+    last speed."""
+    down = _bend_odometry(_LEAVING_A_TURN + _BENT_DOWN)
+    assert down._speed_before_bend(-0.02) == pytest.approx(1.0, abs=0.02)
+    up = _bend_odometry(_LEAVING_A_TURN + _BENT_UP)
+    assert up._speed_before_bend(+0.02) == pytest.approx(1.0, abs=0.02)
+    # the reach is the near floor's (eq. G4's rows, 1.7 m at this camera): a slower stretch before it is not taken
+    slow_then_steady = _bend_odometry([0.3] * 20 + [1.0] * 16)
+    assert slow_then_steady._speed_before_bend(+0.02) == pytest.approx(1.0, abs=1e-12)
+    assert _bend_odometry(_LEAVING_A_TURN + _BENT_DOWN)._speed_before_bend(0.0) == _BENT_DOWN[-1]
+    reversing = _bend_odometry([-0.5] * 10)
+    assert reversing._speed_before_bend(-0.02) == -0.5

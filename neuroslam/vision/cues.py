@@ -47,6 +47,35 @@ class CueSelectionMixin:
     """The cue selection of the visual odometry (see the module); mixed into
     :class:`~neuroslam.vision.odometry.VisualOdometry`, whose state it reads and updates."""
 
+    def _speed_before_bend(self, bend: float) -> float:
+        """The speed a transition holds (m/s), from the speeds observed over the near floor's reach before it
+        (eq. R6); ``bend`` is the transition's pitch change so far (rad, nose up positive).
+
+        Before a ramp's top or foot the floor ahead is not one plane with the floor below the robot, and the
+        ground-plane model (eq. G1) misplaces it: where the floor bends down (a descent's top, a climb's top)
+        the pixels beyond the bend lie farther than the model puts them, their motion is less than a metre
+        of travel moves a point at the modelled depth, and the distance reads short; where it bends up (a
+        climb's foot, a descent's foot), nearer, and it reads long. The floor's information on the distance
+        lies mostly in its near rows (a floor point's image motion per metre falls as 1 / depth²), so the
+        readings bend as the bend comes within the near floor's reach (eq. G4's rows; without them, the
+        floor's first row): about 1.7 m of travel before the transition at the testbed's camera, measured on
+        a generated world's descent as 9 frames at 1 m/s, from 0.99 of the true speed to 0.57. The speeds
+        observed over that reach are partly bent one way, and the rest are the speed itself; the held speed
+        is the middle of the half the bend cannot have pulled its way, the upper quartile before a bend down
+        and the lower quartile before a bend up:
+
+            v_hold = Q_3/4 { v_k : s_k >= s - r }  if bend < 0,   Q_1/4 { ... }  if bend > 0              (R6)
+
+        (s_k: the distance travelled at reading k, s: now, r: the near floor's reach from the turning axis).
+        Without readings in that reach, or where the robot was reversing, the last speed stands."""
+        config, ground = self.config, self._ground
+        row = ground.near_row if ground.near_row > 0 else ground.first_row
+        reach = config.camera_forward + config.camera_height / (row * math.tan(self.vertical_fov / 2))
+        speeds = np.array([speed for travelled, speed in self._readings if travelled >= self._travelled - reach])
+        if len(speeds) == 0 or speeds.min() < 0 or bend == 0:
+            return self._speed
+        return float(np.quantile(speeds, 0.75 if bend < 0 else 0.25))
+
     def _observed_motion(self, floor_distance: float, floor_yaw: float, aligned_yaw: float, image_sees_yaw: bool,
                          pitch_seen: bool, dt: float) -> tuple[float, float, Observed]:
         """Distance and yaw change of a frame off a transition, each from the cue that observes it.
@@ -146,6 +175,7 @@ class CueSelectionMixin:
             if distance is None and floor_sees:
                 distance, distance_source = floor_distance, "floor"
         if distance is not None:
+            self._readings.append((self._travelled, distance / dt))
             self._held_speed, self._blind_for, self._unobserved = distance / dt, 0.0, 0
         else:  # nothing sees the distance: the last speed, for blind_hold seconds after the image last showed
             # the robot moving in its direction (eq. R4's expansion, its scale unknown)

@@ -14,9 +14,10 @@
 - Height with ``height_model = "transitions"`` (the default of the ``sim`` preset): the pitch change
   from aligning consecutive images under a pure rotation (eqs. R1–R2 of :mod:`.pitch`), taken only as
   whole transitions between level floors and ramps (eq. R3). On a transition frame the floor is not one
-  plane, so the yaw is the rotation alignment's and the speed the last one measured off a transition (it
-  does not change over a ramp's foot; frames may be unevenly spaced); elsewhere both come from the floor
-  (eqs. G1–G3).
+  plane, so the yaw is the rotation alignment's and the speed is held from those measured before it (it
+  does not change over a ramp's foot; frames may be unevenly spaced): with ``planar_motion = "ground"``, the
+  quartile of the last near floor's reach of readings that the bend ahead cannot have pulled its way (eq. R6
+  of :mod:`.cues`), else the last one; elsewhere both come from the floor (eqs. G1–G3).
 - Height with ``height_model = "profile"`` (NeuroSLAM eqs. 31–32, measured rather than switched from ground
   truth): the height region, offset by the yaw shift, is matched against the previous frame's by the
   vertical shift minimising the mean absolute difference (NeuroSLAM eq. 31 over the whole region rather than its
@@ -32,6 +33,7 @@
 from __future__ import annotations
 
 import math
+from collections import deque
 
 import numpy as np
 
@@ -46,6 +48,10 @@ from .profiles import best_shift, profile_turn, vertical_shift
 from .structure import StructureHeading
 
 __all__ = ["BLIND", "Observed", "SelfMotion", "VisualOdometry", "best_shift", "profile_turn", "vertical_shift"]
+
+# the most observed speeds kept for eq. R6 (a near floor's reach is about 17 frames at 1 m/s and 10 Hz; a robot
+# creeping slower than that keeps the last 64, 6.4 s)
+_READINGS = 64
 
 class VisualOdometry(CueSelectionMixin):
     """Self-motion from consecutive grey images.
@@ -93,6 +99,10 @@ class VisualOdometry(CueSelectionMixin):
         self._held_speed = 0.0  # m/s, the last observed speed
         self._blind_for = math.inf  # s since the distance was last observed (inf: never)
         self._unobserved = 0  # frames since the distance was last observed (off transitions)
+        # eq. R6: the speeds observed over the last near floor's reach, (m travelled, m/s) each, oldest first
+        self._readings: deque[tuple[float, float]] = deque(maxlen=_READINGS)
+        self._travelled = 0.0  # m, the distance taken so far (each frame's, unsigned)
+        self._bending = False  # whether the frame before was in a transition that held a speed
         # the metric scale of the upper image's expansion (m per unit), learnt where the floor sees the
         # distance: running sums of d e and e² (eq. S1, :meth:`_observed_motion`)
         self._scale_sums = np.zeros(3)
@@ -145,7 +155,10 @@ class VisualOdometry(CueSelectionMixin):
                           "observed.unobserved": np.int64(self._unobserved),
                           "observed.scale_sums": self._scale_sums.copy(),
                           "observed.ceiling_sums": self._ceiling_sums.copy(),
-                          "observed.ceiling_countdown": np.int64(self._ceiling_countdown)})
+                          "observed.ceiling_countdown": np.int64(self._ceiling_countdown),
+                          "observed.readings": np.array(self._readings, dtype=float).reshape(-1, 2),
+                          "observed.travelled": np.float64(self._travelled),
+                          "observed.bending": np.bool_(self._bending)})
         return state
 
     def load_state_dict(self, state: dict[str, np.ndarray]) -> None:
@@ -177,6 +190,10 @@ class VisualOdometry(CueSelectionMixin):
             self._scale_sums = np.asarray(state.get("observed.scale_sums", np.zeros(3)), dtype=float).copy()
             self._ceiling_sums = np.asarray(state.get("observed.ceiling_sums", np.zeros(3)), dtype=float).copy()
             self._ceiling_countdown = int(state.get("observed.ceiling_countdown", 0))
+            readings = np.asarray(state.get("observed.readings", np.zeros((0, 2))), dtype=float).reshape(-1, 2)
+            self._readings = deque(((float(a), float(b)) for a, b in readings), maxlen=_READINGS)
+            self._travelled = float(state.get("observed.travelled", 0.0))
+            self._bending = bool(state.get("observed.bending", False))
             if self._ground is not None:
                 self._finest = self._ground.finest
             else:
@@ -348,15 +365,20 @@ class VisualOdometry(CueSelectionMixin):
             # one does, its frames' motion is read as elsewhere
             in_transition = self.transitions.step(pitch_change, dt, seen=pitch_seen or self._ground is None)
             if in_transition and self.transitions.seen:
+                if self._ground is not None and not self._bending:  # the transition's first held frame: eq. R6
+                    self._speed = self._held_speed = self._speed_before_bend(self.transitions.run)
+                self._bending = True
                 distance = self._speed * dt
                 yaw_change = float(np.clip(aligned_yaw, -config.max_yaw_rate * dt, config.max_yaw_rate * dt))
                 if self._ground is not None:
                     observed = Observed("held", "image", "image")
             else:
+                self._bending = False
                 if self._ground is not None:
                     distance, yaw_change, observed = self._observed_motion(distance, yaw_change, aligned_yaw,
                                                                            image_sees_yaw, pitch_seen, dt)
                 self._speed = distance / dt
+        self._travelled += abs(distance)
         self.pitch = self.transitions.current
         climb = float(np.clip(distance * math.sin(self.pitch), -config.max_climb_rate * dt, config.max_climb_rate * dt))
         return SelfMotion(distance / dt, yaw_change / dt, climb / dt, observed)

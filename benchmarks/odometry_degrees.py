@@ -11,7 +11,10 @@ fixed"), the true height changes ("height fixed"). The Sim(3) ATE of each (m) sa
 odometry's error that degree of freedom carries: a drive whose "yaw fixed" ATE is a fraction of the
 odometry's owes its error to the yaw. It also splits the yaw error (degrees, summed over the drive, positive
 counter-clockwise) between the frames that turn more than 0.5° (5°/s at 10 frames/s) and the frames that
-drive straight, and gives the distance read over the distance driven.
+drive straight, and gives the distance read over the distance driven. The straight frames' yaw error is
+also given per 100 m driven, apart on the floors and on the ramps (frames whose true height lies more than
+:data:`OFF_FLOOR` from every floor of ``metrics.json``'s ``levels``), uphill and downhill: a ramp read turned
+moves every level above it, which no loop closure on either level sees (``benchmarks/level_placement.py``).
 
 It writes ``RUN/odometry_degrees.csv`` (one row per drive) and prints the table and the medians.
 """
@@ -19,6 +22,7 @@ It writes ``RUN/odometry_degrees.csv`` (one row per drive) and prints the table 
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -29,6 +33,14 @@ from neuroslam.datasets import read_groundtruth
 from neuroslam.evaluation.trajectory import ate_rmse
 
 TURNING = np.radians(0.5)  # rad a frame: a frame turning more than this is a turn, the others drive straight
+OFF_FLOOR = 0.15  # m: a frame whose true height is farther than this from every floor is on a ramp
+
+
+def per_100_m(error_deg: np.ndarray, distance: np.ndarray, frames: np.ndarray) -> float:
+    """Yaw error (deg) summed over ``frames`` (a mask of steps) per 100 m of their true distance; NaN where
+    they drove under a metre."""
+    driven = float(distance[frames].sum())
+    return float(100 * error_deg[frames].sum() / driven) if driven >= 1.0 else math.nan
 
 
 def rebuild(distances: np.ndarray, yaw: np.ndarray, climbs: np.ndarray) -> np.ndarray:
@@ -53,6 +65,10 @@ def measure(drive: Path) -> dict:
     true_turn, turn = np.diff(true_yaw), np.diff(yaw)
     turning = np.abs(true_turn) > TURNING
     yaw_error = np.degrees(turn - true_turn)
+    levels = np.asarray(metrics["levels"], dtype=float)
+    heights = truth[1:, 2]  # each step's height at its end
+    on_ramp = np.min(np.abs(heights[:, None] - levels[None, :]), axis=1) > OFF_FLOOR
+    straight, rising = ~turning, true_climb > 0
     return {"world": metrics["world"], "ate_odometry_m": ate_rmse(odometry[:, :3], truth[:, :3]),
             "ate_rebuilt_m": ate_rmse(rebuild(distance, yaw, climb), truth[:, :3]),
             "ate_yaw_fixed_m": ate_rmse(rebuild(distance, true_yaw, climb), truth[:, :3]),
@@ -60,6 +76,9 @@ def measure(drive: Path) -> dict:
             "ate_height_fixed_m": ate_rmse(rebuild(distance, yaw, true_climb), truth[:, :3]),
             "yaw_error_turning_deg": float(yaw_error[turning].sum()),
             "yaw_error_straight_deg": float(yaw_error[~turning].sum()),
+            "straight_floor_deg_per_100m": per_100_m(yaw_error, true_distance, straight & ~on_ramp),
+            "straight_uphill_deg_per_100m": per_100_m(yaw_error, true_distance, straight & on_ramp & rising),
+            "straight_downhill_deg_per_100m": per_100_m(yaw_error, true_distance, straight & on_ramp & ~rising),
             "distance_ratio": float(distance.sum() / max(true_distance.sum(), 1e-9))}
 
 
@@ -68,19 +87,23 @@ def main(argv: list[str] | None = None) -> int:
     if rows is None:
         return 2
     print(f"{'world':10} {'odometry':>8} {'yaw fixed':>9} {'distance':>8} {'height':>7} "
-          f"{'yaw err turning':>15} {'straight':>8} {'distance read':>13}")
+          f"{'yaw err turning':>15} {'straight':>8} {'distance read':>13} "
+          f"{'straight °/100 m: floor':>23} {'uphill':>6} {'downhill':>8}")
     for row in rows:
         print(f"{row['world']:10} {row['ate_odometry_m']:8.2f} {row['ate_yaw_fixed_m']:9.2f} "
               f"{row['ate_distance_fixed_m']:8.2f} {row['ate_height_fixed_m']:7.2f} "
               f"{row['yaw_error_turning_deg']:+15.0f} {row['yaw_error_straight_deg']:+8.0f} "
-              f"{row['distance_ratio']:13.3f}")
-    median = {key: float(np.median([row[key] for row in rows])) for key in rows[0] if key != "world"}
+              f"{row['distance_ratio']:13.3f} {row['straight_floor_deg_per_100m']:+23.1f} "
+              f"{row['straight_uphill_deg_per_100m']:+6.1f} {row['straight_downhill_deg_per_100m']:+8.1f}")
+    median = {key: float(np.nanmedian([row[key] for row in rows])) for key in rows[0] if key != "world"}
     positive = sum(row["yaw_error_straight_deg"] > 0 for row in rows)
     print(f"{len(rows)} drives, median ATE (m): odometry {median['ate_odometry_m']:.2f}, rebuilt "
           f"{median['ate_rebuilt_m']:.2f}, yaw fixed {median['ate_yaw_fixed_m']:.2f}, distance fixed "
           f"{median['ate_distance_fixed_m']:.2f}, height fixed {median['ate_height_fixed_m']:.2f}; median |yaw "
           f"error| turning {np.median([abs(r['yaw_error_turning_deg']) for r in rows]):.0f}°, straight "
-          f"{np.median([abs(r['yaw_error_straight_deg']) for r in rows]):.0f}° (counter-clockwise on {positive}).")
+          f"{np.median([abs(r['yaw_error_straight_deg']) for r in rows]):.0f}° (counter-clockwise on {positive}); "
+          f"median straight yaw error per 100 m: floors {median['straight_floor_deg_per_100m']:+.1f}°, uphill "
+          f"{median['straight_uphill_deg_per_100m']:+.1f}°, downhill {median['straight_downhill_deg_per_100m']:+.1f}°.")
     return 0
 
 

@@ -2,7 +2,8 @@
 
 Run: ``python benchmarks/generalization.py --out runs/generalization [--odometry wheel] [--quick]
 [--camera-noise] [--generator N] [--workers 2] [--laps 2] [--grid FIELD=VALUE ...]``. A measurement, not a
-test: it asserts nothing and is not part of the pytest run. About 35 minutes with 2 workers here (``--quick``: about 5).
+test: it asserts nothing and is not part of the pytest run. About 50–90 minutes with 2 workers here
+(``--quick``: about 5).
 
 What it does: drives the main route of every world below (2 laps, camera only unless ``--odometry`` says
 otherwise, the default preset) through ``neuroslam sweep`` on a local Ray instance, one drive per worker,

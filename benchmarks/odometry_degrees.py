@@ -30,6 +30,7 @@ import numpy as np
 from generalization import measure_drives
 
 from neuroslam.datasets import read_groundtruth
+from neuroslam.evaluation.metrics import nearest_level
 from neuroslam.evaluation.trajectory import ate_rmse
 
 TURNING = np.radians(0.5)  # rad a frame: a frame turning more than this is a turn, the others drive straight
@@ -67,7 +68,7 @@ def measure(drive: Path) -> dict:
     yaw_error = np.degrees(turn - true_turn)
     levels = np.asarray(metrics["levels"], dtype=float)
     heights = truth[1:, 2]  # each step's height at its end
-    on_ramp = np.min(np.abs(heights[:, None] - levels[None, :]), axis=1) > OFF_FLOOR
+    on_ramp = np.abs(heights - levels[nearest_level(heights, levels)]) > OFF_FLOOR
     straight, rising = ~turning, true_climb > 0
     return {"world": metrics["world"], "ate_odometry_m": ate_rmse(odometry[:, :3], truth[:, :3]),
             "ate_rebuilt_m": ate_rmse(rebuild(distance, yaw, climb), truth[:, :3]),

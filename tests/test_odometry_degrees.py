@@ -17,17 +17,20 @@ STEP = 0.1  # m a frame, driven straight east
 
 
 def _drive(folder: Path, yaw_error_per_frame: dict[str, float]) -> None:
-    """A drive straight east over a floor, up a ramp, over the upper floor and down again (0.1 m a frame);
-    the odometry is the truth with the given yaw error added per frame on floor, uphill and downhill frames
-    (classified as the benchmark does: a frame more than 0.15 m from every floor is on a ramp)."""
-    heights = np.concatenate([np.zeros(100), np.linspace(0.0, 1.5, 101)[1:], np.full(100, 1.5),
-                              np.linspace(1.5, 0.0, 101)[1:], np.zeros(100)])
+    """A drive straight east over a floor, up a 1.6 m ramp, over the upper floor and down again (0.1 m a frame,
+    16 mm of height a ramp frame); the odometry is the truth with the given yaw error added per frame on floor,
+    uphill and downhill frames. A ramp frame ends more than 0.15 m from both floors: between 0.15 and 1.45 m
+    (no frame's height lies within 5 mm of either bound)."""
+    heights = np.concatenate([np.zeros(100), np.linspace(0.0, 1.6, 101)[1:], np.full(100, 1.6),
+                              np.linspace(1.6, 0.0, 101)[1:], np.zeros(100)])
     count = len(heights)
     truth = np.column_stack([STEP * np.arange(count), np.zeros(count), heights])
-    levels = [0.0, 1.5]
-    on_ramp = np.min(np.abs(heights[1:, None] - np.asarray(levels)[None, :]), axis=1) > odometry_degrees.OFF_FLOOR
+    levels = [0.0, 1.6]
+    end = heights[1:]
+    on_ramp = (end > 0.15) & (end < 1.45)
     rising = np.diff(heights) > 0
     kinds = np.where(on_ramp, np.where(rising, "uphill", "downhill"), "floor")
+    assert np.count_nonzero(kinds == "uphill") == np.count_nonzero(kinds == "downhill") == 81
     yaw = np.radians(np.r_[0.0, np.cumsum([yaw_error_per_frame[kind] for kind in kinds])])
     odometry = truth.copy()
     odometry[1:, :2] = np.cumsum(np.column_stack([STEP * np.cos(yaw[:-1]), STEP * np.sin(yaw[:-1])]), axis=0)

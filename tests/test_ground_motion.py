@@ -259,3 +259,50 @@ def test_a_blank_near_floor_leaves_the_yaw_to_the_whole_floor():
         estimates[near_row] = np.array([motion.step(image) for image in images])
     assert np.abs(estimates[0.0][1:]).max() > 0.01  # the far floor did measure a motion
     np.testing.assert_array_equal(estimates[0.5], estimates[0.0])
+
+
+def striped_wall(rows=400):
+    """A wall texture of vertical dark stripes 6 cm wide every 25 cm (the testbed's tiled walls), blurred by one
+    texture sample."""
+    along = np.arange(2000) * TEXTURE_CELL
+    return ndimage.gaussian_filter(np.where((along % 0.25) < 0.06, 0.25, 0.55)[None, :].repeat(rows, 0), 1.0)
+
+
+@pytest.mark.parametrize("wall_left", [1.1, 1.3])
+def test_on_a_slope_the_near_floor_is_the_lane(wall_left):
+    """Eq. G7: driving straight 10 m over a faint floor (intensity's standard deviation 0.027) beside a striped
+    wall 1.1 m to the left, the wall's face enters eq. G4's near floor at its top outer corner (its top row spans
+    1.3 m to either side) and outweighs the floor: the whole near floor reads -4.7 degrees (measured), the lane
+    within 1 m of the path -0.36. With the wall 1.3 m away it does not reach the near floor and the two read alike
+    (-0.30, -0.36). Off a slope ``slope_half_width`` changes nothing (the estimates are identical)."""
+    floor = floor_texture(4)
+    images = [render_beside_wall(floor, striped_wall(), 0.1 * k, wall_left=wall_left) for k in range(101)]
+    turned, estimates = {}, {}
+    for lane, on_slope in ((0.0, True), (1.0, True), (1.0, False)):
+        motion = GroundMotion(horizontal_fov=FOV, camera_height=CAMERA_HEIGHT, camera_forward=CAMERA_FORWARD,
+                              near_row=0.5, slope_half_width=lane)
+        motion.on_slope = on_slope
+        estimates[lane, on_slope] = np.array([motion.step(image) for image in images])
+        turned[lane, on_slope] = math.degrees(estimates[lane, on_slope][1:, 1].sum())
+    assert abs(turned[1.0, True]) < 0.5
+    if wall_left < 1.3:
+        assert turned[0.0, True] < -3.0  # the wall's face in the whole near floor
+    else:
+        assert abs(turned[0.0, True]) < 0.5
+    np.testing.assert_array_equal(estimates[1.0, False], estimates[0.0, True])
+
+
+def test_the_odometry_takes_the_lane_where_its_pitch_is_a_slope():
+    """The visual odometry sets :attr:`GroundMotion.on_slope` from the pitch its transitions hold (eq. R3): at
+    least ``transition_min`` is a slope."""
+    config = VisualOdometryConfig(slope_half_width=1.0)
+    odometry = VisualOdometry(config, horizontal_fov=FOV, vertical_fov=2 * math.atan(math.tan(FOV / 2) * 0.75))
+    image = render(floor_texture(2), 0.0, 0.0, 0.0)
+    odometry.step(image, 0.1)
+    assert not odometry._ground.on_slope
+    odometry.transitions.pitch = -config.transition_min
+    odometry.step(image, 0.1)
+    assert odometry._ground.on_slope
+    odometry.transitions.pitch = 0.5 * config.transition_min
+    odometry.step(image, 0.1)
+    assert not odometry._ground.on_slope

@@ -79,6 +79,11 @@ class VisualOdometryConfig:
             error over 100 frames 0.55 -> 0.71 degrees rms, a bias the loop closures removed traded for noise
             they cannot), and the worlds meeting every target fell from 24 to 12. Off until the lane is used
             only where the walls outweigh it (docs/generalization.md).
+        slope_half_width: for ``ground`` with ``transitions``, eq. G4's near floor's half width beside the path
+            while the pitch held is a slope (at least ``transition_min``), m (eq. G7 of
+            :mod:`neuroslam.vision.ground_motion`): a ramp's side wall close beside its lane enters the near
+            floor's outer corner and turns the yaw (the benchmark's straight ramps read counter-clockwise, a
+            median +8 and +23 degrees per 100 m uphill and downhill). 0 (the default) keeps the whole near floor.
         floor_min_information: for ``ground``, the floor's information on the distance (eq. G3's Σ w J_d²) below
             which the floor does not see the distance, as a multiple of the prior's weight. 0.3, measured on the
             testbed (the README's accuracy section): it leaves every textured floor alone. 1.0, where the
@@ -181,6 +186,7 @@ class VisualOdometryConfig:
     level_snap: float = math.radians(4.0)
     near_floor_row: float = 0.5
     floor_half_width: float = 0.0
+    slope_half_width: float = 0.0
     floor_min_information: float = 0.3
     floor_aperture: float = 0.1745  # 10 degrees (the value the benchmark measured)
     min_image_information: float = 0.2
@@ -232,7 +238,8 @@ class VisualOdometryConfig:
                  "must be an angle from 0 to max_slope, rad")
         non_negative(path, min_image_information=self.min_image_information, blind_hold=self.blind_hold,
                       forward_evidence=self.forward_evidence,
-                      floor_min_information=self.floor_min_information, floor_half_width=self.floor_half_width)
+                      floor_min_information=self.floor_min_information, floor_half_width=self.floor_half_width,
+                      slope_half_width=self.slope_half_width)
         positive(path, scale_memory=self.scale_memory, floor_yaw_tolerance=self.floor_yaw_tolerance)
         require(f"{path}.floor_aperture", self.floor_aperture,
                  number(self.floor_aperture) and 0 <= self.floor_aperture < math.pi / 2,

@@ -69,6 +69,21 @@ the lane the robot itself drives on, which is floor wherever it can drive; a wal
 the side no longer enters eq. G3 (nor eq. G4). It removes the far rows' outer columns, not the near floor's:
 at 160 x 120 and 80 degrees, 1 m keeps the whole width of the rows up to 1.2 m ahead.
 
+A ramp is a narrow strip between side walls or railings, and a robot on it drives nearer one of them than
+on a floor: the testbed's generated ramps are 4 m wide, their lanes 1.3 m from the wall on their right, and
+that wall's face enters eq. G4's near floor at its top outer corner (at 160 x 120 and 80 degrees the near
+floor's top row spans 1.3 m to either side). On a faintly marked ramp it outweighs the floor and turns eq. G4's
+yaw towards the far side: over the generalization benchmark the straight frames read counter-clockwise on 42
+of 43 worlds uphill and 40 downhill, a median +8 and +23 degrees per 100 m, against +1 on the floors
+(docs/generalization.md, twenty-third step). With ``slope_half_width`` set, eq. G4's near floor is therefore
+the lane alone while :attr:`GroundMotion.on_slope` is set (the odometry sets it where the pitch it holds is a
+slope),
+
+    Q_near = { q in eq. G4's near floor : |y| <= slope_half_width }     on a slope               (G7)
+
+and the whole near floor elsewhere. (On the floors the whole near floor reads straighter: the lane there turned
+the building's flat straights -10.6 -> -32.8 degrees over 455 m, docs/generalization.md.)
+
 Whether the floor sees the distance at all is decided by its information on it (``min_information``). An
 edge that runs along the path (a wall's foot, a ramp's side, a line along the lane) carries none: a forward
 step slides it along itself and the image does not change (the aperture problem). Its pixels'
@@ -160,6 +175,8 @@ class GroundMotion:
         near_tolerance: the largest change of the yaw eq. G4 may make, rad per frame.
         half_width: the floor region's half width beside the path, m (eq. G5); 0 (the default) takes every
             floor pixel below ``first_row``. Only for the floor (a ceiling's plane has no lane).
+        slope_half_width: eq. G4's near floor's half width beside the path while :attr:`on_slope` is set, m (eq.
+            G7); 0 (the default) keeps the whole near floor on slopes too. Only for the floor.
         aperture: rad; a pixel counts towards the information on the distance (eq. G6, what
             ``min_information`` is compared with) only where its image gradient lies more than this from
             perpendicular to the image motion a forward step gives it. 0 (this class's default) counts every
@@ -174,11 +191,16 @@ class GroundMotion:
                  first_row: float = 0.3, smoothing: float = 1.0, robust_scale: float = 0.05, iterations: int = 10,
                  min_information: float = 0.3, near_row: float = 0.0, near_information: float = 3.0,
                  near_tolerance: float = 0.03, levels: int = 2, surface: str = "floor", half_width: float = 0.0,
-                 aperture: float = 0.0):
+                 aperture: float = 0.0, slope_half_width: float = 0.0):
         if surface not in ("floor", "ceiling"):
             raise ValueError(f"surface={surface!r}: must be 'floor' or 'ceiling'")
         if not half_width >= 0 or (half_width and surface != "floor"):
             raise ValueError(f"half_width={half_width!r}: must be 0 or more, and 0 for a ceiling")
+        if not slope_half_width >= 0 or (slope_half_width and surface != "floor"):
+            raise ValueError(f"slope_half_width={slope_half_width!r}: must be 0 or more, and 0 for a ceiling")
+        self.slope_half_width = float(slope_half_width)
+        # whether the robot is on a slope: eq. G4's near floor is then eq. G7's lane (set by the odometry)
+        self.on_slope = False
         if not 0 <= aperture < math.pi / 2:
             raise ValueError(f"aperture={aperture!r}: must be in [0, pi/2) radians")
         self.aperture = float(aperture)
@@ -279,8 +301,10 @@ class GroundMotion:
 
     def _floor(self, shape: tuple[int, int], near_only: bool = False, whole: bool = False) -> tuple:
         """Per image size: focal length, centre, the floor pixels' flat indices and their ground points q
-        (with ``near_only``, those of eq. G4's near floor alone; with ``whole``, beyond eq. G5's lane too)."""
-        cached = self._geometry.get((shape, near_only, whole))
+        (with ``near_only``, those of eq. G4's near floor alone, within eq. G7's lane on a slope; with ``whole``,
+        beyond eq. G5's lane too)."""
+        slope_lane = self.slope_half_width if near_only and self.on_slope else 0.0
+        cached = self._geometry.get((shape, near_only, whole, slope_lane))
         if cached is not None:
             return cached
         rows, columns = shape
@@ -300,14 +324,16 @@ class GroundMotion:
         if self.half_width > 0 and not whole:  # eq. G5: the lane beside the path alone
             lane = np.abs(ground[1]) <= self.half_width
             indices, ground, v = indices[lane], np.ascontiguousarray(ground[:, lane]), v[lane]
-        if near_only:  # the near floor of eq. G4
+        if near_only:  # the near floor of eq. G4 (within eq. G7's lane on a slope)
             near = v >= centre_v + self.near_row * rows / 2
+            if slope_lane > 0:
+                near &= np.abs(ground[1]) <= slope_lane
             indices, ground = indices[near], np.ascontiguousarray(ground[:, near])
         # |d pi / dd|^2 of eq. G6: the squared image motion of a forward step (eqs. G1 and G2 at rest), px^2 / m^2
         inverse = 1.0 / np.maximum(ground[0] - self.camera_forward, 0.2)
         flow = (focal * inverse * inverse) ** 2 * (ground[1] ** 2 + self._height**2)
         cached = (focal, centre_u, centre_v, indices, ground, flow.astype(np.float32))
-        self._geometry[(shape, near_only, whole)] = cached
+        self._geometry[(shape, near_only, whole, slope_lane)] = cached
         return cached
 
     def step(self, grey_image: np.ndarray) -> tuple[float, float]:

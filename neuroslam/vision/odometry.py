@@ -92,7 +92,8 @@ class VisualOdometry(CueSelectionMixin):
             self._ground = GroundMotion(horizontal_fov=horizontal_fov, camera_height=config.camera_height,
                                         camera_forward=config.camera_forward, near_row=config.near_floor_row,
                                         half_width=config.floor_half_width, aperture=config.floor_aperture,
-                                        min_information=config.floor_min_information)
+                                        min_information=config.floor_min_information,
+                                        slope_half_width=config.slope_half_width)
         self._alignment = self.transitions = None
         self._speed = 0.0  # m/s, the last speed measured off a transition (held across one)
         # where nothing observes the distance, this speed is held (odometry.blind_hold)
@@ -268,6 +269,8 @@ class VisualOdometry(CueSelectionMixin):
         if self._ground is not None:  # eq. G3a: eq. G3's prior on the distance loosens while nothing observes it
             self._ground.distance_certainty = 1.0 / (1 + self._unobserved)
         working = reduce_to_width(grey_image, self.config.working_width)  # the direct alignments' image
+        if self._ground is not None and self.transitions is not None:  # eq. G7: on a slope, the near floor's lane
+            self._ground.on_slope = abs(self.transitions.pitch) >= self.config.transition_min
         ground = None if self._ground is None else self._ground.step(working)
         finest_before = self._finest
         if self._alignment is not None:

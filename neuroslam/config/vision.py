@@ -85,7 +85,7 @@ class VisualOdometryConfig:
             floor's outer corner and turns the yaw (the benchmark's straight ramps read counter-clockwise, a
             median +8 and +23 degrees per 100 m uphill and downhill). 0 (the default) keeps the whole near floor.
             At 1 m (eq. G5's lane) the ramps' bias mostly goes (downhill +21 -> +7 degrees per 100 m in the median
-            of 39 benchmark drives) and the SLAM ATE falls on 17 of them, but the building's rises 1.11 ->
+            of 41 benchmark drives) and the SLAM ATE falls on 18 of them, but the building's rises 1.11 ->
             1.36 m, no longer half its odometry's, which CI asserts, and gen3:132 closes a loop falsely: off
             until those are understood (docs/generalization.md, twenty-fourth step).
         floor_min_information: for ``ground``, the floor's information on the distance (eq. G3's Σ w J_d²) below

@@ -275,8 +275,8 @@ def test_on_a_slope_the_near_floor_is_the_lane(wall_left):
     1.3 m to either side) and outweighs the floor: the whole near floor reads -4.7 degrees (measured), the lane
     within 1 m of the path -0.36. With the wall 1.3 m away it does not reach the near floor and the two read alike
     (-0.30, -0.36). Off a slope ``slope_half_width`` changes nothing (the estimates are identical)."""
-    floor = floor_texture(4)
-    images = [render_beside_wall(floor, striped_wall(), 0.1 * k, wall_left=wall_left) for k in range(101)]
+    floor, wall = floor_texture(4), striped_wall()
+    images = [render_beside_wall(floor, wall, 0.1 * k, wall_left=wall_left) for k in range(101)]
     turned, estimates = {}, {}
     for lane, on_slope in ((0.0, True), (1.0, True), (1.0, False)):
         motion = GroundMotion(horizontal_fov=FOV, camera_height=CAMERA_HEIGHT, camera_forward=CAMERA_FORWARD,

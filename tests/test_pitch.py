@@ -240,11 +240,45 @@ def test_another_sensors_speed_climbs_on_the_cameras_pitch():
     assert odometry.climb_rate_at(1.0) == pytest.approx(expected, rel=1e-12)
     assert odometry.climb_rate_at(-0.5) == pytest.approx(-0.5 * expected, rel=1e-12)
     assert odometry.climb_rate_at(10.0) == odometry.config.max_climb_rate  # 2.08 m/s: clipped at 0.6
+    # eq. R7: the wheels' speed is along the ramp; over the ground plan it moves the robot by its cosine
+    assert odometry.horizontal_speed_at(1.0) == pytest.approx(math.cos(odometry.pitch), rel=1e-12)
+    assert odometry.horizontal_speed_at(-0.5) == pytest.approx(-0.5 * math.cos(odometry.pitch), rel=1e-12)
     state = odometry.state_dict()
     for bad in (math.nan, math.inf, "fast", None):
         with pytest.raises(InvalidInputError, match="forward_speed"):
             odometry.climb_rate_at(bad)
+        with pytest.raises(InvalidInputError, match="forward_speed"):
+            odometry.horizontal_speed_at(bad)
     assert all(np.array_equal(state[key], value) for key, value in odometry.state_dict().items())
+
+
+def test_a_speed_along_a_slope_moves_the_robot_by_its_cosine_and_climbs_by_its_sine():
+    """Eq. R7: views pitching up by 3° a frame to 12° while the odometry holds 1 m/s read on the floor before
+    the bend (eq. R6): each frame's speed along the surface is 1 m/s, its horizontal part 1 × cos(pitch) and
+    its climb 1 × sin(pitch) (the paper's integration took all of it as horizontal: 2.2 % long at 12°)."""
+    first = scene(2)
+    views, pitch = [first], 0.0
+    for change in [0.0, 3.0, 3.0, 3.0, 3.0]:
+        pitch += math.radians(change)
+        views.append(rotated(first, 0.0, pitch))
+    odometry = VisualOdometry(VisualOdometryConfig(), horizontal_fov=FOV,
+                              vertical_fov=2 * math.atan(math.tan(FOV / 2) * 0.75))
+    for view in views[:2]:
+        odometry.step(view, 0.1)
+    odometry._readings.clear()  # 1 m/s observed over the last 2 m (eq. R6's readings)
+    for _ in range(20):
+        odometry._readings.append((odometry._travelled, 1.0))
+        odometry._travelled += 0.1
+    pitches = []
+    for view in views[2:]:
+        motion = odometry.step(view, 0.1)
+        assert motion.observed.distance == "held"
+        assert odometry.surface_speed == pytest.approx(1.0, abs=1e-12)
+        assert motion.forward_speed == pytest.approx(math.cos(odometry.pitch), rel=1e-12)
+        assert motion.climb_rate == pytest.approx(math.sin(odometry.pitch), rel=1e-12)
+        pitches.append(math.degrees(odometry.pitch))
+    assert pitches == pytest.approx([3.0, 6.0, 9.0, 12.0], abs=0.1)
+    assert motion.forward_speed < 0.98  # 1 m/s along a 12° slope: 0.978 m/s over the ground plan
 
 
 @pytest.mark.parametrize("planar_motion", ["ground", "profile"])

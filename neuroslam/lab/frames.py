@@ -441,10 +441,12 @@ class SelfMotionSource:
             visual = odometry.step(grey(frame.image), dt)
             pitch = self.gravity.step(frame.imu.accelerometer, dt)
             seen = None if visual.observed is None else Observed(visual.observed.distance, visual.observed.yaw)
-            return SelfMotion(visual.forward_speed, visual.yaw_rate, visual.forward_speed * math.sin(pitch), seen)
+            speed = odometry.surface_speed  # along the surface: its horizontal part and climb on the IMU's pitch
+            return SelfMotion(speed * math.cos(pitch), visual.yaw_rate, speed * math.sin(pitch), seen)
         if frame.wheels is None:  # encoders for speed and turn; the camera for the pitch
             raise InvalidParameterError("odometry", self.mode, f"frame {frame.index} has no wheel odometry")
         visual = odometry.step(grey(frame.image), dt)
         seen = None if visual.observed is None else Observed(height=visual.observed.height)
-        speed = frame.wheels.forward_speed
-        return SelfMotion(speed, frame.wheels.yaw_rate, odometry.climb_rate_at(speed), seen)
+        speed = frame.wheels.forward_speed  # along the surface
+        return SelfMotion(odometry.horizontal_speed_at(speed), frame.wheels.yaw_rate, odometry.climb_rate_at(speed),
+                          seen)

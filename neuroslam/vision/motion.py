@@ -52,7 +52,8 @@ class SelfMotion:
     """Self-motion over one frame, in the robot's frame.
 
     Attributes:
-        forward_speed: m/s along the heading. yaw_rate: rad/s, counter-clockwise positive.
+        forward_speed: m/s along the heading, horizontal (on a slope, the part of the speed along the surface
+            that moves the robot over the ground plan). yaw_rate: rad/s, counter-clockwise positive.
         climb_rate: m/s, positive up.
         observed: what the camera observed of each (:class:`Observed`); None where the source does not
             say (the paper's profile odometry).

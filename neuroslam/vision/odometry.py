@@ -17,7 +17,13 @@
   plane, so the yaw is the rotation alignment's and the speed is held from those measured before it (it
   does not change over a ramp's foot; frames may be unevenly spaced): with ``planar_motion = "ground"``, the
   quartile of the last near floor's reach of readings that the bend ahead cannot have pulled its way (eq. R6
-  of :mod:`.cues`), else the last one; elsewhere both come from the floor (eqs. G1–G3).
+  of :mod:`.cues`), else the last one; elsewhere both come from the floor (eqs. G1–G3). The floor's alignment
+  reads the distance d in the floor's own plane, so on a slope of pitch θ the frame moves the robot
+
+      horizontal = d cos θ,   climb = d sin θ                                                         (R7)
+
+  (the paper integrates d as horizontal: a 10° ramp then reads 1.5 % long, the same way both up and down, which
+  moves every level above it and which no loop closure sees).
 - Height with ``height_model = "profile"`` (NeuroSLAM eqs. 31–32, measured rather than switched from ground
   truth): the height region, offset by the yaw shift, is matched against the previous frame's by the
   vertical shift minimising the mean absolute difference (NeuroSLAM eq. 31 over the whole region rather than its
@@ -53,6 +59,17 @@ __all__ = ["BLIND", "Observed", "SelfMotion", "VisualOdometry", "best_shift", "p
 # creeping slower than that keeps the last 64, 6.4 s)
 _READINGS = 64
 
+def _finite_speed(forward_speed: float) -> float:
+    """``forward_speed`` as a float, m/s; :class:`InvalidInputError` naming it where it is not a finite number."""
+    try:
+        speed = float(forward_speed)
+    except (TypeError, ValueError):
+        speed = math.nan
+    if not math.isfinite(speed):
+        raise InvalidInputError("forward_speed", repr(forward_speed), "must be a finite number (m/s)")
+    return speed
+
+
 class VisualOdometry(CueSelectionMixin):
     """Self-motion from consecutive grey images.
 
@@ -63,6 +80,10 @@ class VisualOdometry(CueSelectionMixin):
 
     Attributes:
         pitch: the current pitch estimate, rad (nose up positive).
+        surface_speed: the last :meth:`step`'s speed along the surface driven on, m/s. With
+            ``height_model = "transitions"`` the step's ``forward_speed`` is its horizontal part,
+            ``surface_speed`` × cos(pitch) (eq. R7); with ``"profile"`` the two are equal (the paper's model
+            integrates the distance as horizontal, and its pitch is calibrated for the climb, not measured).
         lines: with ``planar_motion = "ground"`` and ``manhattan``, the
             :class:`~.structure.StructureHeading` that turns the heading towards the floor's and the ceiling's
             straight lines (eq. M3); None otherwise.
@@ -79,6 +100,7 @@ class VisualOdometry(CueSelectionMixin):
         self.vertical_fov = vertical_fov
         self.panoramic = panoramic
         self.pitch = 0.0
+        self.surface_speed = 0.0
         self._previous: dict[str, np.ndarray] | None = None
         # the last two frames' column profiles (NeuroSLAM eqs. 27–29), for the yaw where nothing else sees it
         self._rotation_profiles: tuple[np.ndarray, np.ndarray] | None = None
@@ -276,6 +298,7 @@ class VisualOdometry(CueSelectionMixin):
         if self._alignment is not None:
             self._finest = self._ground.finest if ground is not None else blurred_with_gradients(working, 1.0)
         if previous is None or dt <= 0:
+            self.surface_speed = 0.0
             return SelfMotion(0.0, 0.0, 0.0)
         config = self.config
         width = config.profile_width
@@ -326,6 +349,7 @@ class VisualOdometry(CueSelectionMixin):
         self.pitch = (self.pitch + pitch_change) * math.exp(-config.pitch_leak * dt)
         climb = config.climb_scale * distance * math.sin(self.pitch)
         climb = float(np.clip(climb, -config.max_climb_rate * dt, config.max_climb_rate * dt))
+        self.surface_speed = distance / dt
         return SelfMotion(distance / dt, yaw_change / dt, climb / dt)
 
     def climb_rate_at(self, forward_speed: float) -> float:
@@ -341,15 +365,23 @@ class VisualOdometry(CueSelectionMixin):
         Raises:
             InvalidInputError: ``forward_speed`` is not a finite number (nothing is changed).
         """
-        try:
-            speed = float(forward_speed)
-        except (TypeError, ValueError):
-            speed = math.nan
-        if not math.isfinite(speed):
-            raise InvalidInputError("forward_speed", repr(forward_speed), "must be a finite number (m/s)")
+        speed = _finite_speed(forward_speed)
         config = self.config
         gain = config.climb_scale if config.height_model == "profile" else 1.0
         return float(np.clip(gain * speed * math.sin(self.pitch), -config.max_climb_rate, config.max_climb_rate))
+
+    def horizontal_speed_at(self, forward_speed: float) -> float:
+        """The horizontal part, m/s, of a speed along the surface another sensor measured (m/s; wheel
+        encoders'), on the pitch the last :meth:`step` estimated: speed × cos(pitch) with
+        ``height_model = "transitions"`` (eq. R7; on a 10° ramp 1.5 % less than the speed), the speed itself with
+        ``"profile"`` (see :attr:`surface_speed`). Call it after :meth:`step` for the same frame, beside
+        :meth:`climb_rate_at`.
+
+        Raises:
+            InvalidInputError: ``forward_speed`` is not a finite number (nothing is changed).
+        """
+        speed = _finite_speed(forward_speed)
+        return speed if self.config.height_model == "profile" else speed * math.cos(self.pitch)
 
     def _height_from_transitions(self, finest_before: np.ndarray | None, distance: float, yaw_change: float,
                                  dt: float) -> SelfMotion:
@@ -383,5 +415,8 @@ class VisualOdometry(CueSelectionMixin):
                 self._speed = distance / dt
         self._travelled += abs(distance)
         self.pitch = self.transitions.current
+        self.surface_speed = distance / dt
+        # the distance is along the surface driven on (the floor's alignment reads it in the floor's plane, a held
+        # speed was read so): on a slope of pitch θ its horizontal part is d cos θ and its climb d sin θ (eq. R7)
         climb = float(np.clip(distance * math.sin(self.pitch), -config.max_climb_rate * dt, config.max_climb_rate * dt))
-        return SelfMotion(distance / dt, yaw_change / dt, climb / dt, observed)
+        return SelfMotion(distance * math.cos(self.pitch) / dt, yaw_change / dt, climb / dt, observed)

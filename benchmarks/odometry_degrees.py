@@ -15,6 +15,8 @@ drive straight, and gives the distance read over the distance driven. The straig
 also given per 100 m driven, apart on the floors and on the ramps (frames whose true height lies more than
 :data:`OFF_FLOOR` from every floor of ``metrics.json``'s ``levels``), uphill and downhill: a ramp read turned
 moves every level above it, which no loop closure on either level sees (``benchmarks/level_placement.py``).
+So does a ramp read long or short, the same way up and down: the horizontal distance read over the distance
+driven is given on the ramps too, uphill and downhill.
 
 It writes ``RUN/odometry_degrees.csv`` (one row per drive) and prints the table and the medians.
 """
@@ -42,6 +44,13 @@ def per_100_m(error_deg: np.ndarray, distance: np.ndarray, frames: np.ndarray) -
     they drove under a metre."""
     driven = float(distance[frames].sum())
     return float(100 * error_deg[frames].sum() / driven) if driven >= 1.0 else math.nan
+
+
+def ratio(distance: np.ndarray, true_distance: np.ndarray, frames: np.ndarray) -> float:
+    """The horizontal distance read over the distance driven on ``frames`` (a mask of steps); NaN where they
+    drove under a metre."""
+    driven = float(true_distance[frames].sum())
+    return float(distance[frames].sum() / driven) if driven >= 1.0 else math.nan
 
 
 def rebuild(distances: np.ndarray, yaw: np.ndarray, climbs: np.ndarray) -> np.ndarray:
@@ -80,7 +89,9 @@ def measure(drive: Path) -> dict:
             "straight_floor_deg_per_100m": per_100_m(yaw_error, true_distance, straight & ~on_ramp),
             "straight_uphill_deg_per_100m": per_100_m(yaw_error, true_distance, straight & on_ramp & rising),
             "straight_downhill_deg_per_100m": per_100_m(yaw_error, true_distance, straight & on_ramp & ~rising),
-            "distance_ratio": float(distance.sum() / max(true_distance.sum(), 1e-9))}
+            "distance_ratio": float(distance.sum() / max(true_distance.sum(), 1e-9)),
+            "uphill_distance_ratio": ratio(distance, true_distance, on_ramp & rising),
+            "downhill_distance_ratio": ratio(distance, true_distance, on_ramp & ~rising)}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -89,13 +100,14 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     print(f"{'world':10} {'odometry':>8} {'yaw fixed':>9} {'distance':>8} {'height':>7} "
           f"{'yaw err turning':>15} {'straight':>8} {'distance read':>13} "
-          f"{'straight °/100 m: floor':>23} {'uphill':>6} {'downhill':>8}")
+          f"{'straight °/100 m: floor':>23} {'uphill':>6} {'downhill':>8} {'ramps read: uphill':>18} {'downhill':>8}")
     for row in rows:
         print(f"{row['world']:10} {row['ate_odometry_m']:8.2f} {row['ate_yaw_fixed_m']:9.2f} "
               f"{row['ate_distance_fixed_m']:8.2f} {row['ate_height_fixed_m']:7.2f} "
               f"{row['yaw_error_turning_deg']:+15.0f} {row['yaw_error_straight_deg']:+8.0f} "
               f"{row['distance_ratio']:13.3f} {row['straight_floor_deg_per_100m']:+23.1f} "
-              f"{row['straight_uphill_deg_per_100m']:+6.1f} {row['straight_downhill_deg_per_100m']:+8.1f}")
+              f"{row['straight_uphill_deg_per_100m']:+6.1f} {row['straight_downhill_deg_per_100m']:+8.1f} "
+              f"{row['uphill_distance_ratio']:18.3f} {row['downhill_distance_ratio']:8.3f}")
     median = {key: float(np.nanmedian([row[key] for row in rows])) for key in rows[0] if key != "world"}
     positive = sum(row["yaw_error_straight_deg"] > 0 for row in rows)
     print(f"{len(rows)} drives, median ATE (m): odometry {median['ate_odometry_m']:.2f}, rebuilt "
@@ -104,7 +116,10 @@ def main(argv: list[str] | None = None) -> int:
           f"error| turning {np.median([abs(r['yaw_error_turning_deg']) for r in rows]):.0f}°, straight "
           f"{np.median([abs(r['yaw_error_straight_deg']) for r in rows]):.0f}° (counter-clockwise on {positive}); "
           f"median straight yaw error per 100 m: floors {median['straight_floor_deg_per_100m']:+.1f}°, uphill "
-          f"{median['straight_uphill_deg_per_100m']:+.1f}°, downhill {median['straight_downhill_deg_per_100m']:+.1f}°.")
+          f"{median['straight_uphill_deg_per_100m']:+.1f}°, downhill {median['straight_downhill_deg_per_100m']:+.1f}°; "
+          f"median distance read on the ramps: uphill {median['uphill_distance_ratio']:.3f}, downhill "
+          f"{median['downhill_distance_ratio']:.3f} of the distance driven (beyond 5 % long on "
+          f"{sum(max(r['uphill_distance_ratio'], r['downhill_distance_ratio']) > 1.05 for r in rows)} drives).")
     return 0
 
 

@@ -193,10 +193,12 @@ class SessionsMixin:
 
         :func:`~neuroslam.loop_closure.confirm_place` over each other component that holds the current
         view, with no search radius (where the robot is in that map is unknown): every window frame's view
-        must lie where the hypothesis puts it, and views seen at several places of that map are no evidence
-        (without a radius to bound them, a run of views along one lane of a repetitive place would otherwise
-        also fit a look-alike lane: measured on the car park's deck, whose north and south lanes look the
-        same). Two components both confirmed: nothing (ambiguous).
+        must lie where the hypothesis puts it, and a view is no evidence for a hypothesis where its places near
+        where that hypothesis puts the frame spread over more than twice the tolerance (``local_reach``: within
+        twice the tolerance plus ``confirmation_drift`` per metre of the window). A view the map holds again
+        far away still says where the robot is; a run of views along one lane of a repetitive place that also
+        fits a look-alike lane (the car park's deck, whose north and south lanes look the same) confirms both
+        lanes, and two rival places confirm nothing. Two components both confirmed: nothing (ambiguous).
         """
         themap = self.experience_map
         experiences = themap.experiences_of(template)
@@ -212,7 +214,8 @@ class SessionsMixin:
             place = confirm_place(poses, templates, relative_yaw, themap.poses, themap.experiences_of,
                                   themap.components == component, themap.robot_pose(), radius=math.inf,
                                   height_radius=math.inf, tolerance=config.confirmation_tolerance,
-                                  matches=config.confirmation_matches, climb_error=config.confirmation_climb_error)
+                                  matches=config.confirmation_matches, climb_error=config.confirmation_climb_error,
+                                  local_reach=True, drift=config.confirmation_drift)
             if place >= 0:
                 found.append(place)
         return found[0] if len(found) == 1 else -1

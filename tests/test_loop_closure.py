@@ -222,3 +222,34 @@ def test_a_corridor_whose_look_repeats_every_two_and_a_half_metres_is_no_evidenc
                          themap.poses[29], radius=5.0, tolerance=1.0, matches=16) in (28, 29)
     assert confirm_place(odometry[window], templates[window], 0.0, themap.poses, repeating, eligible,
                          themap.poses[29], radius=5.0, tolerance=1.0, matches=16) == -1
+
+
+def test_a_merge_judges_a_views_spread_near_each_hypothesis():
+    """Without a search radius (a merge, ``local_reach``), a view the map also holds at the far end of the corridor,
+    in the reverse order there, is evidence for the place whose layout the window fits (judged over the whole
+    map it was none, and nothing was confirmed); a corridor whose look repeats every 2.5 m is still no evidence
+    (the repeats lie within the hypothesis's reach of 2 m plus the drift's 0.1 m per metre of the window)."""
+    themap = _Map(_path(60, turn_at=100))  # straight east
+    odometry, templates = _revisit(themap, 30)
+    window = slice(10, 30)
+    current = int(templates[29])
+    eligible = np.ones(len(themap.poses), dtype=bool)
+
+    def reversed_far(template):
+        own = themap.experiences_of(template)
+        return np.concatenate([own, 59 - own])  # the same views from the far end back
+
+    def repeating(template):
+        own = themap.experiences_of(template)
+        further = own + 5  # 5 × 0.5 m on
+        return further if template == current else np.concatenate([own, further])
+
+    def merge(experiences_of, **local):
+        return confirm_place(odometry[window], templates[window], 0.0, themap.poses, experiences_of, eligible,
+                             themap.poses[29], radius=math.inf, height_radius=math.inf, tolerance=1.0, matches=16,
+                             **local)
+
+    assert merge(reversed_far) == -1
+    assert merge(reversed_far, local_reach=True, drift=0.1) in (28, 29)
+    assert merge(themap.experiences_of, local_reach=True, drift=0.1) in (28, 29)
+    assert merge(repeating, local_reach=True, drift=0.1) == -1

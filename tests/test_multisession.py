@@ -197,18 +197,17 @@ def test_no_merge_is_confirmed_where_nothing_observed_the_distance(tmp_path, dis
 
 
 def test_the_merge_closes_the_loops_its_session_drove_before_it(tmp_path):
-    """A loaded map holds the square and, 40 m on, a look-alike corridor with the views of the square's first
-    half. The second session starts on the square at its view 0, misreads its turn by 30° at view 10, and
-    cannot merge on the first half (each view was seen at two places of the loaded map: no evidence without
-    a search radius); it merges on the second half, where the views are the square's alone. The merge puts
+    """A loaded map holds the square and, 40 m on, a look-alike of the square's first half (its views, laid out
+    as on the square: two sides and a turn on the spot). The second session starts on the square at its view
+    0, misreads its turn by 30° at view 10, and cannot merge on the first half (the window fits both places
+    alike: two rival hypotheses); it merges on the second half, where the views are the square's alone. The merge puts
     the session's first side 30° off about view 10, up to 5 m from the square's. Then the place is known:
     the frames before the merge are tested again as loop closures, within the drift's radius of where the
     merge puts them (which leaves the look-alike out), and the session's experiences of the first side are
     linked to the square's: the least-squares map puts them back on the square."""
     first = NeuroSLAM(SQUARE_CONFIG)
     out = [(200 + k, 1.0, 0.0) for k in range(40)]  # on from the square's end, along its first side
-    corridor = [(k, 1.0, 0.0) for k in range(20)]  # the views of the square's first half again
-    drive(first, [*square(), *out, *corridor])
+    drive(first, [*square(), *out, *square(range(20))])  # the square's first half again
     truth = first.experience_map.poses.copy()
     slam = NeuroSLAM.load(first.save(tmp_path / "first.npz"))
     slam.begin_session()
@@ -238,10 +237,29 @@ def test_the_merge_closes_the_loops_its_session_drove_before_it(tmp_path):
     assert again.closures_before_merge == slam.closures_before_merge
 
 
+def test_views_the_loaded_map_also_holds_elsewhere_in_another_arrangement_are_evidence(tmp_path):
+    """The loaded map holds the square and, 40 m on, the views of its first side again in reverse order. The
+    second session drives the square from its view 0: each view of the first side was seen at two places, but
+    only the square has them laid out as the session drives them, so the window confirms the square there, as
+    soon as 7 of its 10 frames agree (view 6, at (6, 0)). Judged over the whole map instead, a view seen at two
+    places was no evidence for either, and the merge waited for the second side's views (frame 16)."""
+    first = NeuroSLAM(SQUARE_CONFIG)
+    drive(first, [*square(), *[(200 + k, 1.0, 0.0) for k in range(40)], *[(k, 1.0, 0.0) for k in range(9, -1, -1)]])
+    themap = first.experience_map
+    assert all(len(themap.experiences_of(template)) == 2 for template in themap.template_ids[:10])
+    slam = NeuroSLAM.load(first.save(tmp_path / "first.npz"))
+    slam.begin_session()
+    estimates, _ = drive(slam, square())
+    merged = [index for index, estimate in enumerate(estimates) if estimate.merged]
+    assert merged == [6]
+    np.testing.assert_allclose(estimates[6].pose, [6.0, 0.0, 0.0, 0.0], atol=1e-4)  # the map solved to 1e-5
+    assert estimates[6].experience_id == 6  # the square's, not the look-alike's
+
+
 def _look_back_setup(tmp_path, config):
     """The look-alike scene of the test above, with ``config``: the loaded map and the drifting session."""
     first = NeuroSLAM(config)
-    drive(first, [*square(), *[(200 + k, 1.0, 0.0) for k in range(40)], *[(k, 1.0, 0.0) for k in range(20)]])
+    drive(first, [*square(), *[(200 + k, 1.0, 0.0) for k in range(40)], *square(range(20))])
     slam = NeuroSLAM.load(first.save(tmp_path / "first.npz"))
     slam.begin_session()
     drifting = [(view, forward, turn + (math.radians(1.0) if view < 20 else 0.0))

@@ -59,6 +59,7 @@ __all__ = ["BLIND", "Observed", "SelfMotion", "VisualOdometry", "best_shift", "p
 # creeping slower than that keeps the last 64, 6.4 s)
 _READINGS = 64
 
+
 def _finite_speed(forward_speed: float) -> float:
     """``forward_speed`` as a float, m/s; :class:`InvalidInputError` naming it where it is not a finite number."""
     try:

@@ -253,3 +253,62 @@ def test_a_merge_judges_a_views_spread_near_each_hypothesis():
     assert merge(reversed_far, local_reach=True, drift=0.1) in (28, 29)
     assert merge(themap.experiences_of, local_reach=True, drift=0.1) in (28, 29)
     assert merge(repeating, local_reach=True, drift=0.1) == -1
+
+
+def test_a_pinned_place_counts_views_seen_elsewhere_but_not_a_window_that_fits_a_shift():
+    """``pinned``: every view is evidence, and the winner must not be confirmed as well shifted by more than
+    2 × tolerance. Views also seen reversed at the far end of a 30 m corridor, under a 20 m search radius: the
+    spread rule counts none of them and confirms nothing, the pinned rule confirms the place (the far copies fit
+    no single shift). A corridor whose look repeats every 2.5 m, the current view matching only the look-alike
+    on: the window fits a shift of one period back as well, so nothing is confirmed (the spread rule's answer
+    too). A straight window whose every view was also seen 5 m on fits that shift: nothing."""
+    themap = _Map(_path(60, turn_at=100))  # straight east, 30 m
+    odometry, templates = _revisit(themap, 30)
+    window = slice(10, 30)
+    current = int(templates[29])
+    eligible = np.ones(len(themap.poses), dtype=bool)
+
+    def reversed_far(template):
+        own = themap.experiences_of(template)
+        return np.concatenate([own, 59 - own])
+
+    def repeating(template):
+        own = themap.experiences_of(template)
+        further = own + 5  # 5 × 0.5 m on
+        return further if template == current else np.concatenate([own, further])
+
+    def also_further(template):
+        own = themap.experiences_of(template)
+        return np.concatenate([own, np.minimum(own + 10, 59)])  # and 10 × 0.5 m on
+
+    def confirm(experiences_of, **pinned):
+        return confirm_place(odometry[window], templates[window], 0.0, themap.poses, experiences_of, eligible,
+                             themap.poses[29], radius=20.0, tolerance=1.0, matches=16, **pinned)
+
+    assert confirm(reversed_far) == -1
+    assert confirm(reversed_far, pinned=True) in (28, 29)
+    assert confirm(themap.experiences_of, pinned=True) in (28, 29)
+    assert confirm(repeating) == -1
+    assert confirm(repeating, pinned=True) == -1
+    assert confirm(also_further, pinned=True) == -1
+
+
+def test_a_pinned_place_is_refused_where_the_shifted_place_lies_beyond_the_robots_reach():
+    """The shifts tried are places the robot could be: within the search radius plus 2 × tolerance of its
+    estimate. A window whose views were each also seen 5 m on (a shift the window fits) is confirmed when the
+    radius cannot reach 5 m on, and refused when it can."""
+    themap = _Map(_path(60, turn_at=100))
+    odometry, templates = _revisit(themap, 30)
+    window = slice(10, 30)
+    eligible = np.ones(len(themap.poses), dtype=bool)
+
+    def also_further(template):
+        own = themap.experiences_of(template)
+        return np.concatenate([own, np.minimum(own + 10, 59)])
+
+    def confirm(radius):
+        return confirm_place(odometry[window], templates[window], 0.0, themap.poses, also_further, eligible,
+                             themap.poses[29], radius=radius, tolerance=1.0, matches=16, pinned=True)
+
+    assert confirm(1.0) in (28, 29)  # 5 m on lies beyond 1 + 2 m
+    assert confirm(4.0) == -1

@@ -36,7 +36,6 @@ def confirm_place(
     window_alternatives: Sequence[Sequence[int]] | None = None,
     local_reach: bool = False,
     drift: float = 0.0,
-    pinned: bool = False,
 ) -> int:
     """The old experience the last frames confirm the robot is at, or -1.
 
@@ -76,18 +75,6 @@ def confirm_place(
     the rival test: each of them that holds the current view is a hypothesis, and two confirmed ones more
     than ``2 * tolerance`` apart confirm nothing.
 
-    With ``pinned`` (loop closures, ``ExperienceMapConfig.confirmation_pinned``), the view's spread decides
-    nothing by itself: every frame whose view has eligible places is evidence, and the winner must be pinned
-    instead. The same evidence must not confirm it shifted: were the winner's frame moved by an offset longer
-    than ``2 * tolerance`` (to a place within the radii plus ``2 * tolerance``, where the robot could be), at
-    least ``matches`` frames would again find a place of their view within ``tolerance`` (and their climbs
-    within theirs). That is the rival test with rivals the current view need not hold: along a corridor whose
-    look repeats, the window fits the place one period on as well as the truth, whichever of the two the
-    current view matched, and a straight window fits any shift along its own line where its views were seen
-    over metres; a window whose views are each seen at several places, but in an arrangement that fits one
-    place only, is confirmed. The shifts tried are those at which some frame's place lies (offsets from
-    where the winner maps the frame), rounded to ``tolerance / 2``.
-
     Args:
         window_poses: (K, 4) odometry poses (x, y, z, yaw; m, rad) of the window's frames, oldest first;
             the last is the current frame.
@@ -100,7 +87,6 @@ def confirm_place(
         climb_error: m of height per m of travel the window's odometry may be off by.
         window_alternatives: per window frame, the other template ids its view matched (may be empty).
         local_reach: judge a view's spread per hypothesis (see above). drift: m per m of travel, with it.
-        pinned: every view is evidence and the winner must be pinned (see above); not with ``local_reach``.
     """
     window_poses = np.asarray(window_poses, dtype=float)
     if len(window_poses) < matches:
@@ -123,7 +109,6 @@ def confirm_place(
     misfit = np.zeros(len(hypotheses))  # m, summed over the agreeing frames: the distance to the nearest agreeing place
     if window_alternatives is None:
         window_alternatives = [()] * len(window_poses)
-    offsets: list[tuple[np.ndarray, np.ndarray]] = []  # per evidence frame, with ``pinned``
     for pose, template, alternatives in zip(window_poses, window_templates, window_alternatives, strict=True):
         places = experiences_of(int(template))
         places = places[eligible[places]]
@@ -132,9 +117,7 @@ def confirm_place(
         dx, dy, dz = pose[:3] - now[:3]
         mapped = compose(frames, np.array([dx, dy, dz, 0.0]))[:, :3]
         gaps = np.linalg.norm(mapped[:, None, :2] - map_poses[None, places, :2], axis=2)
-        if pinned:
-            evidence = True
-        elif local_reach:  # per hypothesis: the view's places near where it maps this frame
+        if local_reach:  # per hypothesis: the view's places near where it maps this frame
             near = gaps <= 2 * tolerance + drift * math.hypot(dx, dy)
             xy = map_poses[places, :2]
             low = np.where(near[:, :, None], xy[None], np.inf).min(axis=1)
@@ -152,11 +135,8 @@ def confirm_place(
             places = places[eligible[places]]
             gaps = np.linalg.norm(mapped[:, None, :2] - map_poses[None, places, :2], axis=2)
         climbs = np.abs(mapped[:, None, 2] - map_poses[None, places, 2])
-        agree_climb = tolerance + climb_error * math.hypot(dx, dy)
-        agree = (gaps <= tolerance) & (climbs <= agree_climb)
+        agree = (gaps <= tolerance) & (climbs <= tolerance + climb_error * math.hypot(dx, dy))
         agreeing = agree.any(axis=1) & evidence
-        if pinned:  # where this frame's places lie from where each hypothesis maps it (climbs agreeing)
-            offsets.append((map_poses[None, places, :2] - mapped[:, None, :2], climbs <= agree_climb))
         support += agreeing
         misfit += np.where(agreeing, np.where(agree, gaps, np.inf).min(axis=1, initial=np.inf), 0.0)
     confirmed = support >= matches
@@ -164,35 +144,4 @@ def confirm_place(
         return -1
     best = int(np.argmin(np.where(confirmed & within, misfit / np.maximum(support, 1), np.inf)))
     spread = np.linalg.norm(map_poses[hypotheses[confirmed], :3] - map_poses[hypotheses[best], :3], axis=1).max()
-    if spread > 2 * tolerance:
-        return -1
-    if pinned and _shift_confirmed(offsets, best, map_poses[hypotheses[best], :2] - robot[:2], radius + margin,
-                                   tolerance, matches):
-        return -1
-    return int(hypotheses[best])
-
-
-def _shift_confirmed(offsets: list[tuple[np.ndarray, np.ndarray]], best: int, place: np.ndarray, reach: float,
-                     tolerance: float, matches: int) -> bool:
-    """Whether the window confirms the winning hypothesis shifted by more than ``2 * tolerance`` (m).
-
-    ``offsets``: per evidence frame, the (H, P, 2) offsets of its view's places from where each hypothesis
-    maps it, and (H, P) whether their heights agree. ``place``: the winner's position relative to the robot's
-    estimate; a shift counts only where it puts the robot within ``reach`` of the estimate. Shifts are tried
-    where some frame's place lies, rounded to ``tolerance / 2``; a frame agrees with a shift when a place of
-    its view (heights agreeing) lies within ``tolerance`` of it.
-    """
-    frames = [shift[best][level[best]] for shift, level in offsets]
-    frames = [shift for shift in frames if len(shift)]
-    if len(frames) < matches:
-        return False
-    candidates = np.concatenate(frames)
-    candidates = np.unique(np.round(candidates / (tolerance / 2)), axis=0) * (tolerance / 2)
-    keep = (np.hypot(*candidates.T) > 2 * tolerance) & (np.hypot(*(place + candidates).T) <= reach)
-    candidates = candidates[keep]
-    if len(candidates) == 0:
-        return False
-    support = np.zeros(len(candidates), dtype=int)
-    for shift in frames:
-        support += (np.linalg.norm(candidates[:, None] - shift[None], axis=2) <= tolerance).any(axis=1)
-    return bool((support >= matches).any())
+    return int(hypotheses[best]) if spread <= 2 * tolerance else -1

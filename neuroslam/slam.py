@@ -313,7 +313,7 @@ class NeuroSLAM(SessionsMixin, StateMixin):
             radius=config.confirmation_tolerance + config.confirmation_drift * since,
             height_radius=config.confirmation_tolerance + config.confirmation_climb_error * since,
             tolerance=config.confirmation_tolerance, matches=config.confirmation_matches,
-            climb_error=config.confirmation_climb_error, pinned=config.confirmation_pinned)
+            climb_error=config.confirmation_climb_error)
 
     def _is_old(self, experience: int, time: float) -> bool:
         """One experience's entry of :meth:`_old` (without computing the others)."""

@@ -62,15 +62,6 @@ class ExperienceMapConfig:
             merge moves the whole partial map by where the robot stands, so the same holds for it.
             Only a source that says what it observed is ever blind (not wheels, not the paper's profile
             odometry).
-        confirmation_pinned: how a loop closure treats views seen at several places
-            (:func:`~neuroslam.loop_closure.confirm_place`'s ``pinned``). False (the default): a view whose places
-            within the search radius spread over more than ``2 * confirmation_tolerance`` is no evidence. True:
-            every view is evidence, and the place is confirmed only if the window's views do not confirm it as
-            well shifted by more than ``2 * confirmation_tolerance`` (the rival test against places the current
-            view need not hold). The spread rule silences a window as soon as its views were also seen elsewhere
-            within the radius, which grows while no loop closes: on gen3:107's recorded drive, of the second
-            lap's refused windows whose current view had an experience within 1 m of the robot, 81 % lacked the
-            16 agreeing frames because of views so silenced, 15 % because of frames that disagreed.
         confirmation_tolerance: m, how far a frame's matched experience may lie from where the
             hypothesis puts it. confirmation_age: s, experiences younger than this are not a revisit.
         confirmation_drift: m per m driven since the last loop closure: a hypothesis must lie within
@@ -125,7 +116,6 @@ class ExperienceMapConfig:
     confirmation_turn: float = math.radians(5.0)
     confirmation_views: int = 2
     confirmation_blind: bool = False
-    confirmation_pinned: bool = False
     confirmation_tolerance: float = 1.0
     confirmation_age: float = 30.0
     confirmation_drift: float = 0.1
@@ -161,8 +151,6 @@ class ExperienceMapConfig:
         require(f"{path}.confirmation_matches", matches,
                  isinstance(matches, int) and 1 <= matches <= (window if isinstance(window, int) else 1000),
                  "must be an integer from 1 to confirmation_window")
-        require(f"{path}.confirmation_pinned", self.confirmation_pinned, isinstance(self.confirmation_pinned, bool),
-                 "must be true or false")
         require(f"{path}.confirmation_blind", self.confirmation_blind, isinstance(self.confirmation_blind, bool),
                  "must be true or false")
         views = self.confirmation_views

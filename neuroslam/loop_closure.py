@@ -36,6 +36,8 @@ def confirm_place(
     window_alternatives: Sequence[Sequence[int]] | None = None,
     local_reach: bool = False,
     drift: float = 0.0,
+    odometers: np.ndarray | None = None,
+    sessions: np.ndarray | None = None,
 ) -> int:
     """The old experience the last frames confirm the robot is at, or -1.
 
@@ -75,6 +77,12 @@ def confirm_place(
     the rival test: each of them that holds the current view is a hypothesis, and two confirmed ones more
     than ``2 * tolerance`` apart confirm nothing.
 
+    With ``odometers`` (and ``sessions``), two confirmed places are distinct also where one pass laid them
+    more than ``2 * tolerance`` apart (their odometer readings, in one session, differ by more than that but by
+    no more than the window's own travel, over which the rule trusts the odometry), however close the map has
+    since put them: a map bent by its closures can hold a place and one laid metres on from it within
+    centimetres, and the better fit between them is then a guess.
+
     Args:
         window_poses: (K, 4) odometry poses (x, y, z, yaw; m, rad) of the window's frames, oldest first;
             the last is the current frame.
@@ -87,6 +95,8 @@ def confirm_place(
         climb_error: m of height per m of travel the window's odometry may be off by.
         window_alternatives: per window frame, the other template ids its view matched (may be empty).
         local_reach: judge a view's spread per hypothesis (see above). drift: m per m of travel, with it.
+        odometers: (M,) m, the distance its session had driven when each experience was made; sessions: (M,)
+            each experience's session (all one session without it).
     """
     window_poses = np.asarray(window_poses, dtype=float)
     if len(window_poses) < matches:
@@ -143,5 +153,15 @@ def confirm_place(
     if not (confirmed & within).any():
         return -1
     best = int(np.argmin(np.where(confirmed & within, misfit / np.maximum(support, 1), np.inf)))
-    spread = np.linalg.norm(map_poses[hypotheses[confirmed], :3] - map_poses[hypotheses[best], :3], axis=1).max()
-    return int(hypotheses[best]) if spread <= 2 * tolerance else -1
+    rivals, winner = hypotheses[confirmed], hypotheses[best]
+    spread = np.linalg.norm(map_poses[rivals, :3] - map_poses[winner, :3], axis=1).max()
+    if spread > 2 * tolerance:
+        return -1
+    if odometers is not None:  # places one pass laid apart are distinct, wherever the map has put them since
+        travel = float(np.linalg.norm(np.diff(window_poses[:, :3], axis=0), axis=1).sum())
+        apart = np.abs(odometers[rivals] - odometers[winner])
+        if sessions is not None:
+            apart = np.where(sessions[rivals] == sessions[winner], apart, 0.0)
+        if ((apart > 2 * tolerance) & (apart <= travel)).any():
+            return -1
+    return int(winner)

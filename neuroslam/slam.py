@@ -313,7 +313,9 @@ class NeuroSLAM(SessionsMixin, StateMixin):
             radius=config.confirmation_tolerance + config.confirmation_drift * since,
             height_radius=config.confirmation_tolerance + config.confirmation_climb_error * since,
             tolerance=config.confirmation_tolerance, matches=config.confirmation_matches,
-            climb_error=config.confirmation_climb_error)
+            climb_error=config.confirmation_climb_error,
+            **({"odometers": self.experience_map.odometers, "sessions": self.experience_map.sessions}
+               if config.confirmation_laid_apart else {}))
 
     def _is_old(self, experience: int, time: float) -> bool:
         """One experience's entry of :meth:`_old` (without computing the others)."""

@@ -253,3 +253,32 @@ def test_a_merge_judges_a_views_spread_near_each_hypothesis():
     assert merge(reversed_far, local_reach=True, drift=0.1) in (28, 29)
     assert merge(themap.experiences_of, local_reach=True, drift=0.1) in (28, 29)
     assert merge(repeating, local_reach=True, drift=0.1) == -1
+
+
+def test_two_places_one_pass_laid_apart_are_rivals_wherever_the_map_put_them():
+    """The current view's two experiences (28 and 29) lie 0.5 m apart in the map and both are confirmed. Laid by
+    one pass 0.5 m apart (their odometers), they are one place and the better fit wins; laid 2.5 m apart (the
+    map has since bent them together), they are two places the window cannot tell apart, and nothing is
+    confirmed. Odometers more than the window's travel apart belong to different passes, and other sessions'
+    odometers are not comparable: both confirm as before."""
+    themap = _Map(_path(40, turn_at=25))
+    odometry, templates = _revisit(themap, 30)
+    window = slice(10, 30)
+    eligible = np.ones(len(themap.poses), dtype=bool)
+    laid = np.arange(40) * SPACING  # m, one pass
+
+    def confirm(odometers, sessions=None):
+        return confirm_place(odometry[window], templates[window], 0.0, themap.poses, themap.experiences_of, eligible,
+                             themap.poses[29], radius=5.0, tolerance=1.0, matches=16, odometers=odometers,
+                             sessions=sessions)
+
+    assert confirm(laid) == 29
+    bent = laid.copy()
+    bent[29:] += 2.0  # 28 and 29 laid 2.5 m apart
+    assert confirm(bent) == -1
+    other_pass = laid.copy()
+    other_pass[29:] += 100.0
+    assert confirm(other_pass) == 29
+    sessions = np.zeros(40, dtype=int)
+    sessions[29:] = 1
+    assert confirm(bent, sessions) == 29

@@ -62,6 +62,10 @@ class ExperienceMapConfig:
             merge moves the whole partial map by where the robot stands, so the same holds for it.
             Only a source that says what it observed is ever blind (not wheels, not the paper's profile
             odometry).
+        confirmation_laid_apart: two confirmed places one pass laid more than ``2 * confirmation_tolerance``
+            apart (by its odometer, within the window's travel) are rivals however close the map has since put
+            them (:func:`~neuroslam.loop_closure.confirm_place`'s ``odometers``). Off by default: measured on
+            replays only (docs/generalization.md, the twenty-sixth step), not yet over the benchmark.
         confirmation_tolerance: m, how far a frame's matched experience may lie from where the
             hypothesis puts it. confirmation_age: s, experiences younger than this are not a revisit.
         confirmation_drift: m per m driven since the last loop closure: a hypothesis must lie within
@@ -116,6 +120,7 @@ class ExperienceMapConfig:
     confirmation_turn: float = math.radians(5.0)
     confirmation_views: int = 2
     confirmation_blind: bool = False
+    confirmation_laid_apart: bool = False
     confirmation_tolerance: float = 1.0
     confirmation_age: float = 30.0
     confirmation_drift: float = 0.1
@@ -151,6 +156,8 @@ class ExperienceMapConfig:
         require(f"{path}.confirmation_matches", matches,
                  isinstance(matches, int) and 1 <= matches <= (window if isinstance(window, int) else 1000),
                  "must be an integer from 1 to confirmation_window")
+        require(f"{path}.confirmation_laid_apart", self.confirmation_laid_apart,
+                 isinstance(self.confirmation_laid_apart, bool), "must be true or false")
         require(f"{path}.confirmation_blind", self.confirmation_blind, isinstance(self.confirmation_blind, bool),
                  "must be true or false")
         views = self.confirmation_views

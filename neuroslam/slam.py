@@ -314,8 +314,8 @@ class NeuroSLAM(SessionsMixin, StateMixin):
             height_radius=config.confirmation_tolerance + config.confirmation_climb_error * since,
             tolerance=config.confirmation_tolerance, matches=config.confirmation_matches,
             climb_error=config.confirmation_climb_error,
-            **({"odometers": self.experience_map.odometers, "sessions": self.experience_map.sessions}
-               if config.confirmation_laid_apart else {}))
+            odometers=self.experience_map.odometers if config.confirmation_laid_apart else None,
+            sessions=self.experience_map.sessions)
 
     def _is_old(self, experience: int, time: float) -> bool:
         """One experience's entry of :meth:`_old` (without computing the others)."""

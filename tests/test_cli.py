@@ -26,6 +26,16 @@ def test_help_explains_every_command():
         assert option in drive_help
 
 
+def test_record_drives_as_many_laps_as_drive_by_default():
+    """A recording made with the defaults replays the drive `neuroslam drive` makes with them."""
+    from neuroslam.lab.cli.parser import build_parser
+
+    parser = build_parser()
+    drive = parser.parse_args(["drive", "gen:1"])
+    record = parser.parse_args(["record", "gen:1", "--out", "somewhere"])
+    assert record.laps == drive.laps == 2
+
+
 def test_worlds_lists_levels_and_routes(capsys):
     assert main(["worlds"]) == 0
     out = capsys.readouterr().out

@@ -88,9 +88,9 @@ def build_parser() -> argparse.ArgumentParser:
         "record", help="save a simulated drive as a dataset of frames and ground truth",
         description="Drive a route and save frames/NNNNNN.png, groundtruth.tum, wheel_odometry.tum and "
         "dataset.json (world, route and floor heights), a dataset that neuroslam run (or any other SLAM system) "
-        "can replay.")
+        "can replay; two laps by default, as neuroslam drive, so that a replay scores as the drive did.")
     record.add_argument("world", help="built-in world name, gen:SEED, or an MJCF file")
-    drive_options(record, laps=1, camera=True)
+    drive_options(record, laps=2, camera=True)
     output_options(record, "dataset folder to write", required=True)
 
     calibrate = commands.add_parser(

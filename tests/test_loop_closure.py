@@ -282,3 +282,71 @@ def test_two_places_one_pass_laid_apart_are_rivals_wherever_the_map_put_them():
     sessions = np.zeros(40, dtype=int)
     sessions[29:] = 1
     assert confirm(bent, sessions) == 29
+
+
+def test_with_a_lead_the_frames_only_one_place_explains_decide():
+    """Along a straight corridor the last 12 window frames' views (and the current one) were also seen 6 m
+    further on; the first 8 were seen only where the robot is. The spread rule silences the 12, and 8 agreeing
+    frames confirm nothing. With a lead every view votes: the true place has 20 frames, the look-alike 6 m on
+    12, and the true place leads by 8, all of them views seen only there. With a lead of more than 8, with
+    every view repeating (a corridor whose look repeats all along the window, 20 against 20), or where the
+    frames that make the lead were seen at other places too (3 m behind), nothing is confirmed."""
+    themap = _Map(_path(60, turn_at=100))  # straight east
+    odometry, templates = _revisit(themap, 30)
+    window = slice(10, 30)
+    eligible = np.ones(len(themap.poses), dtype=bool)
+
+    def looks_alike_from(first):
+        def experiences_of(template):
+            own = themap.experiences_of(template)
+            return np.concatenate([own, own + 12]) if template >= first else own  # 12 × 0.5 m on
+        return experiences_of
+
+    def confirm(experiences_of, lead):
+        return confirm_place(odometry[window], templates[window], 0.0, themap.poses, experiences_of, eligible,
+                             themap.poses[29], radius=10.0, tolerance=1.0, matches=16, lead=lead)
+
+    partly = looks_alike_from(int(templates[18]))  # frames 18-29 repeat, 10-17 do not
+    assert confirm(partly, lead=0) == -1
+    assert confirm(partly, lead=4) in (28, 29)
+    assert confirm(partly, lead=8) in (28, 29)
+    assert confirm(partly, lead=9) == -1
+    everywhere = looks_alike_from(0)
+    assert confirm(everywhere, lead=4) == -1
+    assert confirm(themap.experiences_of, lead=4) in (28, 29)  # no look-alikes: the rule alone confirms
+
+    def no_view_seen_once(template):  # the first 8 frames' views were also seen 3 m behind: the lead is theirs
+        own = partly(template)
+        return np.concatenate([own, own - 6]) if template < int(templates[18]) else own
+
+    assert confirm(no_view_seen_once, lead=4) == -1
+
+
+def test_with_a_lead_views_repeating_within_the_rivals_reach_do_not_lead():
+    """The current view was seen only 3.5 m on from the robot (its true place, 29, was seen with another view),
+    the last 12 window frames' views both where the robot drove and 4 m on, and the first 8 frames saw a view
+    seen every 1.5 m along the corridor. Within the radius (3.2 m) of where the look-alike maps them, the 12
+    views were seen at one place, and 12 agreeing frames confirm nothing by the rule; every view votes for the
+    look-alike (20 frames) and no rival is a hypothesis. Within the reach rivals are looked for (5.2 m) each
+    of the 12 was seen at two places 4 m apart, so none of the frames is seen once: nothing is confirmed."""
+    themap = _Map(_path(80, turn_at=100))  # straight east
+    odometry, templates = _revisit(themap, 30)
+    window = slice(10, 30)
+    current = int(templates[29])
+    seen = templates.copy()
+    seen[10:18] = 100  # a view seen all along the corridor
+
+    def experiences_of(template):
+        if template == 100:
+            return np.arange(0, 80, 3)
+        own = themap.experiences_of(template)
+        return own + 8 if template == current else np.concatenate([own, own + 8])  # 8 × 0.5 m on
+
+    eligible = np.ones(len(themap.poses), dtype=bool)
+
+    def confirm(lead):
+        return confirm_place(odometry[window], seen[window], 0.0, themap.poses, experiences_of, eligible,
+                             themap.poses[31], radius=3.2, tolerance=1.0, matches=16, lead=lead)
+
+    assert confirm(lead=0) == -1
+    assert confirm(lead=4) == -1

@@ -96,9 +96,9 @@ def confirm_place(
     the map has drifted by a tolerance the look-alike may fit more of the repeating views than the true place
     does, and where the current view was seen only at the look-alike the true place is no hypothesis at all,
     but the views seen at one place within that reach do not repeat at any shift a rival could have: those
-    decide. On a second lap
-    the spread rule silences most of a window where the first lap saw its views at places a few metres
-    apart (gen3:107: 8.8 of 20 frames, their places a median 6.4 m apart), and the loop stays open.
+    decide. (On a second lap the spread rule silences much of a window where the first lap saw its views at
+    places a few metres apart, gen3:107: 8.8 of 20 frames, their places a median 6.4 m apart, and the loop
+    stays open.)
 
     Args:
         window_poses: (K, 4) odometry poses (x, y, z, yaw; m, rad) of the window's frames, oldest first;

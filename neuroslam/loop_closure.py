@@ -38,7 +38,6 @@ def confirm_place(
     drift: float = 0.0,
     odometers: np.ndarray | None = None,
     sessions: np.ndarray | None = None,
-    lead: int = 0,
 ) -> int:
     """The old experience the last frames confirm the robot is at, or -1.
 
@@ -84,22 +83,6 @@ def confirm_place(
     since put them: a map bent by its closures can hold a place and one laid metres on from it within
     centimetres, and the better fit between them is then a guess.
 
-    With ``lead`` (frames, 0: off), where the rule above confirms nothing, every view votes: a view seen at
-    several places agrees with a hypothesis wherever one of its places lies where the hypothesis maps the
-    frame. The hypothesis within the radii with the most agreeing frames (at least ``matches``; a tie goes to
-    the better fit) is confirmed when every other hypothesis that is a distinct place (more than
-    ``2 * tolerance`` from it, or laid apart as above) has at least ``lead`` fewer, both of all the agreeing
-    frames and of those whose view is seen at one place (its places within ``radius + 2 * tolerance`` of
-    where the hypothesis maps the frame, the reach rivals are looked for, spread over at most
-    ``2 * tolerance``), and at least ``lead`` of the latter agree with it. A corridor whose look repeats
-    gives a hypothesis shifted by its period as many frames as the true one, and nothing is confirmed; where
-    the map has drifted by a tolerance the look-alike may fit more of the repeating views than the true place
-    does, and where the current view was seen only at the look-alike the true place is no hypothesis at all,
-    but the views seen at one place within that reach do not repeat at any shift a rival could have: those
-    decide. (On a second lap the spread rule silences much of a window where the first lap saw its views at
-    places a few metres apart, gen3:107: 8.8 of 20 frames, their places a median 6.4 m apart, and the loop
-    stays open.)
-
     Args:
         window_poses: (K, 4) odometry poses (x, y, z, yaw; m, rad) of the window's frames, oldest first;
             the last is the current frame.
@@ -114,7 +97,6 @@ def confirm_place(
         local_reach: judge a view's spread per hypothesis (see above). drift: m per m of travel, with it.
         odometers: (M,) m, the distance its session had driven when each experience was made; sessions: (M,)
             each experience's session (all one session without it).
-        lead: frames by which a place confirmed on every view's vote must lead every distinct rival; 0: off.
     """
     window_poses = np.asarray(window_poses, dtype=float)
     if len(window_poses) < matches:
@@ -135,9 +117,6 @@ def confirm_place(
     frames = np.column_stack([map_poses[hypotheses, :3], map_poses[hypotheses, 3] + relative_yaw - now[3]])
     support = np.zeros(len(hypotheses), dtype=int)
     misfit = np.zeros(len(hypotheses))  # m, summed over the agreeing frames: the distance to the nearest agreeing place
-    votes = np.zeros(len(hypotheses), dtype=int)  # with ``lead``: every view's agreeing frames, and their misfit
-    vote_misfit = np.zeros(len(hypotheses))
-    sole = np.zeros(len(hypotheses), dtype=int)  # with ``lead``: agreeing frames whose view is seen at one place
     if window_alternatives is None:
         window_alternatives = [()] * len(window_poses)
     for pose, template, alternatives in zip(window_poses, window_templates, window_alternatives, strict=True):
@@ -148,66 +127,41 @@ def confirm_place(
         dx, dy, dz = pose[:3] - now[:3]
         mapped = compose(frames, np.array([dx, dy, dz, 0.0]))[:, :3]
         gaps = np.linalg.norm(mapped[:, None, :2] - map_poses[None, places, :2], axis=2)
-        if lead:  # per hypothesis: is this view seen at one place within the reach rivals are looked for?
-            once = _extent(gaps <= radius + margin, map_poses[places, :2]) <= 2 * tolerance
         if local_reach:  # per hypothesis: the view's places near where it maps this frame
-            extent = _extent(gaps <= 2 * tolerance + drift * math.hypot(dx, dy), map_poses[places, :2])
+            near = gaps <= 2 * tolerance + drift * math.hypot(dx, dy)
+            xy = map_poses[places, :2]
+            low = np.where(near[:, :, None], xy[None], np.inf).min(axis=1)
+            high = np.where(near[:, :, None], xy[None], -np.inf).max(axis=1)
+            extent = np.where(near.any(axis=1), np.hypot(*(high - low).T), 0.0)
             evidence = extent <= 2 * tolerance  # (H,): for which hypotheses this view says where the robot is
         else:
             reach = gaps.min(axis=0) <= radius  # where this frame could be
             extent = np.ptp(map_poses[places[reach], :2], axis=0) if reach.any() else np.zeros(2)
-            # a view seen along many metres (or at several places) within reach says little
-            evidence = math.hypot(*extent) <= 2 * tolerance
-            if not (evidence or lead):
-                continue
+            if math.hypot(*extent) > 2 * tolerance:
+                continue  # a view seen along many metres (or at several places) within reach says little
+            evidence = True
         if len(alternatives):
             places = np.unique(np.concatenate([places, *(experiences_of(int(other)) for other in alternatives)]))
             places = places[eligible[places]]
             gaps = np.linalg.norm(mapped[:, None, :2] - map_poses[None, places, :2], axis=2)
         climbs = np.abs(mapped[:, None, 2] - map_poses[None, places, 2])
         agree = (gaps <= tolerance) & (climbs <= tolerance + climb_error * math.hypot(dx, dy))
-        closest = np.where(agree, gaps, np.inf).min(axis=1, initial=np.inf)
         agreeing = agree.any(axis=1) & evidence
         support += agreeing
-        misfit += np.where(agreeing, closest, 0.0)
-        if lead:
-            votes += agree.any(axis=1)
-            vote_misfit += np.where(agree.any(axis=1), closest, 0.0)
-            sole += agree.any(axis=1) & once
-    travel = float(np.linalg.norm(np.diff(window_poses[:, :3], axis=0), axis=1).sum())
-
-    def distinct(others: np.ndarray, place: int) -> np.ndarray:
-        """Which of ``others`` are places distinct from ``place``: apart in the map, or laid apart by one pass."""
-        far = np.linalg.norm(map_poses[others, :3] - map_poses[place, :3], axis=1) > 2 * tolerance
-        if odometers is not None:  # places one pass laid apart are distinct, wherever the map has put them since
-            apart = np.abs(odometers[others] - odometers[place])
-            if sessions is not None:
-                apart = np.where(sessions[others] == sessions[place], apart, 0.0)
-            far |= (apart > 2 * tolerance) & (apart <= travel)
-        return far
-
+        misfit += np.where(agreeing, np.where(agree, gaps, np.inf).min(axis=1, initial=np.inf), 0.0)
     confirmed = support >= matches
-    if (confirmed & within).any():
-        best = int(np.argmin(np.where(confirmed & within, misfit / np.maximum(support, 1), np.inf)))
-        if not distinct(hypotheses[confirmed], hypotheses[best]).any():
-            return int(hypotheses[best])
-    if not lead:
+    if not (confirmed & within).any():
         return -1
-    # every view votes; the place must lead every distinct rival by ``lead`` frames
-    candidates = (votes >= matches) & within
-    if not candidates.any():
+    best = int(np.argmin(np.where(confirmed & within, misfit / np.maximum(support, 1), np.inf)))
+    rivals, winner = hypotheses[confirmed], hypotheses[best]
+    spread = np.linalg.norm(map_poses[rivals, :3] - map_poses[winner, :3], axis=1).max()
+    if spread > 2 * tolerance:
         return -1
-    fit = np.where(candidates, vote_misfit / np.maximum(votes, 1), np.inf)
-    best = int(np.lexsort((fit, -np.where(candidates, votes, -1)))[0])  # the most votes, then the best fit
-    rivals = distinct(hypotheses, hypotheses[best])
-    if sole[best] < lead or (rivals & ((votes > votes[best] - lead) | (sole > sole[best] - lead))).any():
-        return -1
-    return int(hypotheses[best])
-
-
-def _extent(near: np.ndarray, xy: np.ndarray) -> np.ndarray:
-    """(H,) m, per hypothesis, the diagonal of the box around the places ``near`` it ((H, P) bool; ``xy`` (P, 2) m);
-    0 where none is."""
-    low = np.where(near[:, :, None], xy[None], np.inf).min(axis=1)
-    high = np.where(near[:, :, None], xy[None], -np.inf).max(axis=1)
-    return np.where(near.any(axis=1), np.hypot(*(high - low).T), 0.0)
+    if odometers is not None:  # places one pass laid apart are distinct, wherever the map has put them since
+        travel = float(np.linalg.norm(np.diff(window_poses[:, :3], axis=0), axis=1).sum())
+        apart = np.abs(odometers[rivals] - odometers[winner])
+        if sessions is not None:
+            apart = np.where(sessions[rivals] == sessions[winner], apart, 0.0)
+        if ((apart > 2 * tolerance) & (apart <= travel)).any():
+            return -1
+    return int(winner)

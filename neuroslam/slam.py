@@ -315,7 +315,7 @@ class NeuroSLAM(SessionsMixin, StateMixin):
             tolerance=config.confirmation_tolerance, matches=config.confirmation_matches,
             climb_error=config.confirmation_climb_error,
             odometers=self.experience_map.odometers if config.confirmation_laid_apart else None,
-            sessions=self.experience_map.sessions, lead=config.confirmation_lead)
+            sessions=self.experience_map.sessions)
 
     def _is_old(self, experience: int, time: float) -> bool:
         """One experience's entry of :meth:`_old` (without computing the others)."""

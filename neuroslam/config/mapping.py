@@ -66,15 +66,6 @@ class ExperienceMapConfig:
             apart (by its odometer, within the window's travel) are rivals however close the map has since put
             them (:func:`~neuroslam.loop_closure.confirm_place`'s ``odometers``). Off by default: measured on
             replays only (docs/generalization.md, the twenty-sixth step), not yet over the benchmark.
-        confirmation_lead: frames; where the rule confirms nothing, let every view vote (a view seen at several
-            places too) and confirm the place with the most agreeing frames if it leads every distinct rival by
-            this many, among all the agreeing frames and among those whose view was seen at one place
-            (:func:`~neuroslam.loop_closure.confirm_place`'s ``lead``). 4 would be ``confirmation_window -
-            confirmation_matches``: the frames any confirmed place may miss, so a rival within them of the winner
-            is confirmed as well as it is. 0: off, the default: measured on nine recorded drives (urban 0.66 →
-            0.38 m, gen3:132 4.22 → 2.33 m, gen3:130's false closure gone; gen3:137 3.57 → 3.83 m, gen1:2 0.32 →
-            0.37 m; docs/generalization.md, the twenty-seventh step), but the camera benchmark's gen3:136 (largely
-            blind) closed 7 loops falsely with it, 2.2–3.9 m along its path.
         confirmation_tolerance: m, how far a frame's matched experience may lie from where the
             hypothesis puts it. confirmation_age: s, experiences younger than this are not a revisit.
         confirmation_drift: m per m driven since the last loop closure: a hypothesis must lie within
@@ -130,7 +121,6 @@ class ExperienceMapConfig:
     confirmation_views: int = 2
     confirmation_blind: bool = False
     confirmation_laid_apart: bool = False
-    confirmation_lead: int = 0
     confirmation_tolerance: float = 1.0
     confirmation_age: float = 30.0
     confirmation_drift: float = 0.1
@@ -168,10 +158,6 @@ class ExperienceMapConfig:
                  "must be an integer from 1 to confirmation_window")
         require(f"{path}.confirmation_laid_apart", self.confirmation_laid_apart,
                  isinstance(self.confirmation_laid_apart, bool), "must be true or false")
-        lead = self.confirmation_lead
-        require(f"{path}.confirmation_lead", lead, isinstance(lead, int) and not isinstance(lead, bool)
-                 and 0 <= lead <= (window if isinstance(window, int) else 1000),
-                 "must be an integer from 0 to confirmation_window")
         require(f"{path}.confirmation_blind", self.confirmation_blind, isinstance(self.confirmation_blind, bool),
                  "must be true or false")
         views = self.confirmation_views

@@ -117,6 +117,13 @@ class VisualOdometryConfig:
             the scales of the ceiling and the upper image are remembered (``scale_memory``), the robot's motion
             is taken to go on as last seen. (2 s dropped the building's blank stretches to 0 for 55 frames a
             lap, 5.5 m; its SLAM ATE 2.09 m against 1.60 m with 10 s.)
+        blind_turn_band: with ``ground`` and ``transitions``, rad/s: the speed held where nothing observes the
+            distance is the median of those observed at a turn rate (averaged over a second) within this of
+            the current one (eq. R8 of :mod:`neuroslam.vision.cues`), not the last one, which is often a
+            corner's; 0: the last observed speed. 0.05: twice the 99th percentile of the averaged turn rate the
+            odometry reads while the robot drives straight on the development worlds (0.025 rad/s on the
+            building, urban), and a tenth of a corner's (0.5–2 rad/s at the testbed's driver). Off (0) until
+            the camera benchmark has judged it (docs/generalization.md, the twenty-eighth step).
         forward_evidence: with ``transitions``, the t-statistic of the whole image's expansion (eq. R4 of
             :mod:`neuroslam.vision.pitch`: eq. R1's expansion over its standard error) from which a frame on
             which nothing observes the distance still shows the robot moving in the held speed's direction: the
@@ -195,6 +202,7 @@ class VisualOdometryConfig:
     floor_aperture: float = 0.1745  # 10 degrees (the value the benchmark measured)
     min_image_information: float = 0.2
     blind_hold: float = 10.0
+    blind_turn_band: float = 0.0
     forward_evidence: float = 10.0
     scale_memory: float = 10.0
     floor_yaw_tolerance: float = math.radians(1.0)
@@ -241,6 +249,7 @@ class VisualOdometryConfig:
                  number(self.level_snap) and 0 <= self.level_snap < self.max_slope,
                  "must be an angle from 0 to max_slope, rad")
         non_negative(path, min_image_information=self.min_image_information, blind_hold=self.blind_hold,
+                      blind_turn_band=self.blind_turn_band,
                       forward_evidence=self.forward_evidence,
                       floor_min_information=self.floor_min_information, floor_half_width=self.floor_half_width,
                       slope_half_width=self.slope_half_width)

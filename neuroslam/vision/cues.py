@@ -3,8 +3,9 @@
 :class:`CueSelectionMixin` is the part of :class:`~neuroslam.vision.odometry.VisualOdometry` that takes each
 degree of freedom from the cue that observes it on this frame (the floor, the ceiling, the whole image's
 alignment, the column profile), carries the metric scale from where the floor last gave it (eq. S1), holds
-the last speed where nothing observes the distance, for a bounded time after the image last showed the robot
-moving, and marks the frame blind in what nothing observed (:class:`~neuroslam.vision.motion.Observed`).
+a speed where nothing observes the distance (the one observed at the same turn rate, eq. R8), for a bounded
+time after the image last showed the robot moving, and marks the frame blind in what nothing observed
+(:class:`~neuroslam.vision.motion.Observed`).
 """
 
 from __future__ import annotations
@@ -30,6 +31,10 @@ _FIRM_FLOOR = 1.0
 # the synthetic scenes of tests/scenes.py 0.01–0.26, the building's ceilings over its corridors 0.16–0.42,
 # urban's facades and sky 0.43–0.69 (10th–90th percentiles)
 _SCALE_MISFIT = 0.2
+# eq. R8: the turn rate is averaged over this many seconds (the frame's own yaw is noisy), and a speed is
+# taken from at least this many observed frames at about that turn rate (a second's at 10 frames a second)
+_TURN_AVERAGE = 1.0
+_TURN_MINIMUM = 10
 
 
 def _scale(sums: np.ndarray) -> float:
@@ -76,6 +81,41 @@ class CueSelectionMixin:
             return self._speed
         return float(np.quantile(speeds, 0.75 if bend < 0 else 0.25))
 
+    def _turn_rate(self, yaw_change: float, dt: float) -> float:
+        """The turn rate |yaw rate| (rad/s) averaged over the last :data:`_TURN_AVERAGE` seconds, this frame's
+        yaw change (rad, over ``dt`` s) included."""
+        recent = self._recent_turns
+        recent.append((dt, abs(yaw_change) / dt))
+        span = sum(duration for duration, _ in recent)
+        while len(recent) > 1 and span - recent[0][0] >= _TURN_AVERAGE:
+            span -= recent.popleft()[0]
+        return sum(duration * rate for duration, rate in recent) / span
+
+    def _blind_speed(self, turn_rate: float) -> float:
+        """The speed (m/s) held where nothing observes the distance (eq. R8), at the averaged turn rate
+        ``turn_rate`` (rad/s).
+
+        The last observed speed is a poor guess for a long blind stretch: a robot slows for a corner and speeds
+        up after it, and a floor often turns blank at a corner (a wall's end, a change of room), so the last
+        speed a floor read is the corner's, held for the whole straight after it (measured on recorded two-lap
+        drives of eight generated worlds and the building: blind stretches of 25–37 m read at 0.2–0.3 of the
+        truth, the robot's speed at the corner's apex read short by the floor's last frames). The camera still
+        sees the turn where it does not see the distance (the whole image's yaw, eq. R2 and R5), and a robot's
+        speed follows how fast it turns. The speed held is the median of the speeds observed at about the same
+        averaged turn rate among the last :data:`_TURN_READINGS` observed frames:
+
+            v_hold = median { v_k : |w_k - w| <= b }                                                 (R8)
+
+        (w_k, w: the turn rate averaged over the last second at reading k and now, b: ``blind_turn_band``).
+        With fewer than :data:`_TURN_MINIMUM` such readings, with ``blind_turn_band`` 0, or where the last
+        observed speed was not forward, the last observed speed stands."""
+        band, last = self.config.blind_turn_band, self._held_speed
+        if band <= 0 or last <= 0 or len(self._turn_readings) < _TURN_MINIMUM:
+            return last
+        readings = np.array(self._turn_readings)
+        near = readings[np.abs(readings[:, 0] - turn_rate) <= band, 1]
+        return float(np.median(near)) if len(near) >= _TURN_MINIMUM else last
+
     def _observed_motion(self, floor_distance: float, floor_yaw: float, aligned_yaw: float, image_sees_yaw: bool,
                          pitch_seen: bool, dt: float) -> tuple[float, float, Observed]:
         """Distance and yaw change of a frame off a transition, each from the cue that observes it.
@@ -105,12 +145,13 @@ class CueSelectionMixin:
 
         A ceiling's height is the same along a level, and usually from level to level: it carries the scale
         over a blank floor; the upper image's depth changes with where the robot is, so the expansion is the
-        last resort before holding. Where nothing observes the distance, the last observed speed is held for
-        ``blind_hold`` seconds after the image last showed the robot moving that way (its expansion's t-statistic,
-        eq. R4 of :mod:`.pitch`, at least ``forward_evidence``: a scale-free sign of forward motion), then it is 0;
-        where nothing observes the yaw, there is no turn; the frame is
-        marked blind in it (:class:`Observed`). The floor's prior for the next frame (eq. G3's (d0, w0))
-        becomes what was taken, so a blank floor does not carry a stale motion on.
+        last resort before holding. Where nothing observes the distance, a speed is held (the one observed at
+        about the same turn rate, eq. R8 of :meth:`_blind_speed`) for ``blind_hold`` seconds after the image
+        last showed the robot moving that way (its expansion's t-statistic, eq. R4 of :mod:`.pitch`, at least
+        ``forward_evidence``: a scale-free sign of forward motion), then it is 0; where nothing observes the
+        yaw, there is no turn; the frame is marked blind in it (:class:`Observed`). The floor's prior for the
+        next frame (eq. G3's (d0, w0)) becomes what was taken, so a blank floor does not carry a stale motion
+        on.
         """
         config, ground, alignment = self.config, self._ground, self._alignment
         limit_distance, limit_yaw = config.max_speed * dt, config.max_yaw_rate * dt
@@ -130,6 +171,7 @@ class CueSelectionMixin:
                 yaw_source = "profile"
             else:
                 yaw, yaw_source = None, ""
+        turn_rate = self._turn_rate(yaw or 0.0, dt)  # eq. R8
         ceiling, memory = self._ceiling, math.exp(-dt / config.scale_memory)
         height = _scale(self._ceiling_sums)
         # the floor sees the distance firmly where its information outweighs the prior's (1); between
@@ -176,6 +218,7 @@ class CueSelectionMixin:
                 distance, distance_source = floor_distance, "floor"
         if distance is not None:
             self._readings.append((self._travelled, distance / dt))
+            self._turn_readings.append((turn_rate, distance / dt))
             self._held_speed, self._blind_for, self._unobserved = distance / dt, 0.0, 0
         else:  # nothing sees the distance: the last speed, for blind_hold seconds after the image last showed
             # the robot moving in its direction (eq. R4's expansion, its scale unknown)
@@ -184,7 +227,7 @@ class CueSelectionMixin:
                       and math.copysign(1.0, self._held_speed) * self._alignment.expansion_significance() >= evidence)
             self._blind_for = 0.0 if moving else self._blind_for + dt
             held = self._blind_for <= config.blind_hold
-            distance, distance_source = (self._held_speed * dt, "held") if held else (0.0, "none")
+            distance, distance_source = (self._blind_speed(turn_rate) * dt, "held") if held else (0.0, "none")
             self._unobserved += 1
         if yaw is None:  # nothing sees the yaw: no turn (a held turn rate measured 1.3° a frame off)
             yaw, yaw_source = 0.0, "none"

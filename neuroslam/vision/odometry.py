@@ -58,6 +58,9 @@ __all__ = ["BLIND", "Observed", "SelfMotion", "VisualOdometry", "best_shift", "p
 # the most observed speeds kept for eq. R6 (a near floor's reach is about 17 frames at 1 m/s and 10 Hz; a robot
 # creeping slower than that keeps the last 64, 6.4 s)
 _READINGS = 64
+# eq. R8: how many observed speeds are remembered with their turn rates (a minute of frames at 10 a second:
+# long enough to hold the straights and the turns of several corners, short enough to follow a new speed)
+_TURN_READINGS = 600
 
 
 def _finite_speed(forward_speed: float) -> float:
@@ -126,6 +129,10 @@ class VisualOdometry(CueSelectionMixin):
         # eq. R6: the speeds observed over the last near floor's reach, (m travelled, m/s) each, oldest first
         self._readings: deque[tuple[float, float]] = deque(maxlen=_READINGS)
         self._travelled = 0.0  # m, the distance taken so far (each frame's, unsigned)
+        # eq. R8: (turn rate averaged over the last second, rad/s; speed, m/s) at each observed frame, oldest
+        # first, and the last second's (dt s, |yaw rate| rad/s) that average the current turn rate
+        self._turn_readings: deque[tuple[float, float]] = deque(maxlen=_TURN_READINGS)
+        self._recent_turns: deque[tuple[float, float]] = deque()
         self._bending = False  # whether the frame before was in a transition that held a speed
         # the metric scale of the upper image's expansion (m per unit), learnt where the floor sees the
         # distance: running sums of d e and e² (eq. S1, :meth:`_observed_motion`)
@@ -182,6 +189,8 @@ class VisualOdometry(CueSelectionMixin):
                           "observed.ceiling_countdown": np.int64(self._ceiling_countdown),
                           "observed.readings": np.array(self._readings, dtype=float).reshape(-1, 2),
                           "observed.travelled": np.float64(self._travelled),
+                          "observed.turn_readings": np.array(self._turn_readings, dtype=float).reshape(-1, 2),
+                          "observed.recent_turns": np.array(self._recent_turns, dtype=float).reshape(-1, 2),
                           "observed.bending": np.bool_(self._bending)})
         return state
 
@@ -217,6 +226,10 @@ class VisualOdometry(CueSelectionMixin):
             readings = np.asarray(state.get("observed.readings", np.zeros((0, 2))), dtype=float).reshape(-1, 2)
             self._readings = deque(((float(a), float(b)) for a, b in readings), maxlen=_READINGS)
             self._travelled = float(state.get("observed.travelled", 0.0))
+            turns = np.asarray(state.get("observed.turn_readings", np.zeros((0, 2))), dtype=float).reshape(-1, 2)
+            self._turn_readings = deque(((float(a), float(b)) for a, b in turns), maxlen=_TURN_READINGS)
+            recent = np.asarray(state.get("observed.recent_turns", np.zeros((0, 2))), dtype=float).reshape(-1, 2)
+            self._recent_turns = deque((float(a), float(b)) for a, b in recent)
             self._bending = bool(state.get("observed.bending", False))
             if self._ground is not None:
                 self._finest = self._ground.finest

@@ -108,7 +108,13 @@ class CueSelectionMixin:
 
         (w_k, w: the turn rate averaged over the last second at reading k and now, b: ``blind_turn_band``).
         With fewer than :data:`_TURN_MINIMUM` such readings, with ``blind_turn_band`` 0, or where the last
-        observed speed was not forward, the last observed speed stands."""
+        observed speed was not forward, the last observed speed stands.
+
+        It models a robot whose speed follows its turning (a driver that slows for corners, as the testbed's
+        does). Keeping the last speed where the turn rate is still the one it was observed at loses most of
+        the gain (on gen3:136 the floor went blank while the robot, still straight, slowed for the corner).
+        A robot whose speed is set otherwise (a learnt policy's commands) holds its typical speed at that turn
+        rate over the last minute, not its last one; its wheels are the better source of the distance."""
         band, last = self.config.blind_turn_band, self._held_speed
         if band <= 0 or last <= 0 or len(self._turn_readings) < _TURN_MINIMUM:
             return last

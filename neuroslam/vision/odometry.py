@@ -129,9 +129,11 @@ class VisualOdometry(CueSelectionMixin):
         # eq. R6: the speeds observed over the last near floor's reach, (m travelled, m/s) each, oldest first
         self._readings: deque[tuple[float, float]] = deque(maxlen=_READINGS)
         self._travelled = 0.0  # m, the distance taken so far (each frame's, unsigned)
-        # eq. R8: (turn rate averaged over the last second, rad/s; speed, m/s) at each observed frame, oldest
-        # first, and the last second's (dt s, |yaw rate| rad/s) that average the current turn rate
-        self._turn_readings: deque[tuple[float, float]] = deque(maxlen=_TURN_READINGS)
+        # eq. R8: (turn rate averaged over the last second, rad/s; speed, m/s) at the last _TURN_READINGS observed
+        # frames, a ring (reading k in row k % _TURN_READINGS; the median ignores the order), how many were
+        # ever taken, and the last second's (dt s, |yaw rate| rad/s) that average the current turn rate
+        self._turn_readings = np.zeros((_TURN_READINGS, 2))
+        self._turn_count = 0
         self._recent_turns: deque[tuple[float, float]] = deque()
         self._bending = False  # whether the frame before was in a transition that held a speed
         # the metric scale of the upper image's expansion (m per unit), learnt where the floor sees the
@@ -189,7 +191,7 @@ class VisualOdometry(CueSelectionMixin):
                           "observed.ceiling_countdown": np.int64(self._ceiling_countdown),
                           "observed.readings": np.array(self._readings, dtype=float).reshape(-1, 2),
                           "observed.travelled": np.float64(self._travelled),
-                          "observed.turn_readings": np.array(self._turn_readings, dtype=float).reshape(-1, 2),
+                          "observed.turn_readings": self._turn_readings_in_order(),
                           "observed.recent_turns": np.array(self._recent_turns, dtype=float).reshape(-1, 2),
                           "observed.bending": np.bool_(self._bending)})
         return state
@@ -227,7 +229,10 @@ class VisualOdometry(CueSelectionMixin):
             self._readings = deque(((float(a), float(b)) for a, b in readings), maxlen=_READINGS)
             self._travelled = float(state.get("observed.travelled", 0.0))
             turns = np.asarray(state.get("observed.turn_readings", np.zeros((0, 2))), dtype=float).reshape(-1, 2)
-            self._turn_readings = deque(((float(a), float(b)) for a, b in turns), maxlen=_TURN_READINGS)
+            turns = turns[-_TURN_READINGS:]
+            self._turn_readings = np.zeros((_TURN_READINGS, 2))
+            self._turn_readings[:len(turns)] = turns
+            self._turn_count = len(turns)
             recent = np.asarray(state.get("observed.recent_turns", np.zeros((0, 2))), dtype=float).reshape(-1, 2)
             self._recent_turns = deque((float(a), float(b)) for a, b in recent)
             self._bending = bool(state.get("observed.bending", False))
@@ -239,6 +244,12 @@ class VisualOdometry(CueSelectionMixin):
         self.pitch = float(state["pitch"])
         self._previous = ({name: np.asarray(state[f"previous.{name}"]).copy() for name in names}
                           if all(present) else None)
+
+    def _turn_readings_in_order(self) -> np.ndarray:
+        """Eq. R8's readings, (n, 2), oldest first (the ring unrolled), for saving."""
+        count = min(self._turn_count, _TURN_READINGS)
+        start = self._turn_count % _TURN_READINGS if self._turn_count > _TURN_READINGS else 0
+        return np.roll(self._turn_readings, -start, axis=0)[:count].copy()
 
     def _equal_angle_columns(self, image_width: int) -> tuple[np.ndarray, float]:
         """Where to sample the rotation region's column profile so that its columns are equally spaced in

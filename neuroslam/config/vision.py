@@ -122,8 +122,8 @@ class VisualOdometryConfig:
             the current one (eq. R8 of :mod:`neuroslam.vision.cues`), not the last one, which is often a
             corner's; 0: the last observed speed. 0.05: twice the 99th percentile of the averaged turn rate the
             odometry reads while the robot drives straight on the development worlds (0.025 rad/s on the
-            building, urban), and a tenth of a corner's (0.5–2 rad/s at the testbed's driver). Off (0) until
-            the camera benchmark has judged it (docs/generalization.md, the twenty-eighth step).
+            building, urban), and a tenth of a corner's (0.5–2 rad/s at the testbed's driver). The default
+            since the camera benchmark judged it (docs/generalization.md, the twenty-eighth step).
         forward_evidence: with ``transitions``, the t-statistic of the whole image's expansion (eq. R4 of
             :mod:`neuroslam.vision.pitch`: eq. R1's expansion over its standard error) from which a frame on
             which nothing observes the distance still shows the robot moving in the held speed's direction: the
@@ -202,7 +202,7 @@ class VisualOdometryConfig:
     floor_aperture: float = 0.1745  # 10 degrees (the value the benchmark measured)
     min_image_information: float = 0.2
     blind_hold: float = 10.0
-    blind_turn_band: float = 0.0
+    blind_turn_band: float = 0.05
     forward_evidence: float = 10.0
     scale_memory: float = 10.0
     floor_yaw_tolerance: float = math.radians(1.0)

@@ -154,6 +154,29 @@ def test_an_open_deck_turns_by_the_distant_structure_along_its_horizon():
     assert np.all(motions[1:, 1] == 0.0) and all(item.yaw == "none" for item in observed[1:])
 
 
+def test_driving_toward_a_wall_with_posts_near_one_side_is_no_turn_with_the_expansion_fitted():
+    # a blank floor and ceiling, faint posts every 6 m on the walls (0.15 darker), the right wall 0.8 m away and
+    # the left 7.2 m: 6.5 m straight toward the end wall, from 8 m to 1.5 m before it. Too little for the
+    # floor or the image's alignment on most frames; the column profile's shift alone reads the near posts'
+    # outward motion as a turn (-15.7 degrees measured), its shift fitted with the expansion (eq. R9) -4.2
+    posts = Texture("tiles", level=0.62, scale=6.0, contrast=0.15, line=0.3)
+    scene = Scene(floor=Texture("blank", level=0.45), ceiling_texture=Texture("blank", level=0.7), walls=posts,
+                  half_width=4.0, half_length=20.0)
+    path = arc_path([(6.5, 0.0)], start=(12.0, -3.2, 0.0))
+    shift_alone, observed = drive(scene, path, VisualOdometryConfig(profile_expansion=False))
+    assert sum(item.yaw == "profile" for item in observed[1:]) >= 0.4 * len(observed[1:])
+    assert math.degrees(shift_alone[1:, 1].sum()) < -10.0
+    fitted, observed = drive(scene, path, VisualOdometryConfig(profile_expansion=True))
+    assert abs(math.degrees(fitted[1:, 1].sum())) < 5.0
+    # a true turn on the open deck is read as before (89.9 of 90 degrees measured)
+    fence = Texture("tiles", level=0.62, scale=4.0, contrast=0.15, line=0.3)
+    deck = Scene(floor=Texture("blank", level=0.45), ceiling=None, walls=fence, half_width=25.0,
+                 half_length=30.0, wall_height=1.5)
+    motions, observed = drive(deck, TURN, VisualOdometryConfig(profile_expansion=True))
+    assert motions[1:, 1].sum() == pytest.approx(truth(TURN)[1].sum(), rel=0.10)
+    assert sum(item.yaw == "profile" for item in observed[1:]) >= 0.9 * len(observed[1:])
+
+
 def test_a_blind_stretch_longer_than_the_hold_keeps_its_speed_while_the_image_shows_the_motion():
     # marks for 4 m, then 16 m of blank floor under the sky between low walls (0.6 m) whose only texture is a
     # post every 3 m: too little for the ceiling's or the upper image's distance, so the speed is held; the

@@ -8,6 +8,7 @@ import pytest
 from scipy import ndimage
 
 from neuroslam.config import Region, VisualOdometryConfig
+from neuroslam.errors import InvalidParameterError
 from neuroslam.vision import VisualOdometry
 from neuroslam.vision.odometry import best_shift, profile_turn, vertical_shift
 
@@ -61,6 +62,30 @@ def test_profile_turn_stands_out_for_structure_and_never_for_noise_alone():
         assert not profile_turn(profile(images[0]), profile(images[1]), 32)[1]
     uniform = profile(np.full((120, 160), 0.5))
     assert not profile_turn(uniform, uniform, 32)[1]
+
+
+def test_profile_turn_with_the_expansion_fitted_reads_the_shift_alone():
+    # a profile in equal-angle samples (160 across 80 degrees) with its structure on the right only (four
+    # dark posts at 4–30 degrees), the next frame expanded 6 % (tan θ' = 1.06 tan θ: 0.3 m toward a wall
+    # 5 m ahead) and turned by s samples. The shift alone takes the posts' outward motion for a turn; with the
+    # expansion fitted (eq. R9) the turn is s within half a sample
+    bearings = np.radians(-40 + 80 * (np.arange(160) + 0.5) / 160)
+
+    def scene(theta):
+        return 0.5 - 0.2 * sum(np.exp(-0.5 * ((theta - math.radians(post)) / 0.01) ** 2) for post in (4, 11, 19, 30))
+
+    previous = scene(bearings).astype(np.float32)
+    for turn in (0.0, 3.0, -5.0):
+        seen = np.arctan(np.tan(bearings - turn * (bearings[1] - bearings[0])) / 1.06)
+        current = scene(seen).astype(np.float32)
+        alone, _ = profile_turn(previous, current, 32)
+        fitted, stands_out = profile_turn(previous, current, 32, bearings=bearings, max_expansion=0.29)
+        assert stands_out and fitted == pytest.approx(turn, abs=0.5)
+        assert abs(alone - turn) > 1.0  # 1.7 samples at no turn (0.9 degrees a frame)
+    with pytest.raises(InvalidParameterError, match="max_expansion"):
+        profile_turn(previous, previous, 32, bearings=bearings, max_expansion=-0.1)
+    with pytest.raises(InvalidParameterError, match="bearings"):
+        profile_turn(previous, previous, 32, bearings=bearings[:-1], max_expansion=0.1)
 
 
 def pinhole_views(yaw_rate, count, fov, dt=0.1):

@@ -124,6 +124,13 @@ class VisualOdometryConfig:
             odometry reads while the robot drives straight on the development worlds (0.025 rad/s on the
             building, urban), and a tenth of a corner's (0.5–2 rad/s at the testbed's driver). The default
             since the camera benchmark judged it (docs/generalization.md, the twenty-eighth step).
+        profile_expansion: with ``ground`` and ``transitions``: where the column profile gives the yaw (the
+            last resort, where neither the floor nor the whole image's alignment sees it), its shift is found
+            together with the image's expansion (eq. R9 of :func:`neuroslam.vision.profiles.profile_turn`), up
+            to the fastest travel (``max_speed``) toward the nearest thing the camera sees (the floor at the
+            image's lower edge). Without it a robot driving toward a wall with more structure on one side
+            reads a turn (gen3:137: 20° over 5 m of straight, blank floor). Off until its camera benchmark
+            (docs/generalization.md, the twenty-ninth step).
         forward_evidence: with ``transitions``, the t-statistic of the whole image's expansion (eq. R4 of
             :mod:`neuroslam.vision.pitch`: eq. R1's expansion over its standard error) from which a frame on
             which nothing observes the distance still shows the robot moving in the held speed's direction: the
@@ -203,6 +210,7 @@ class VisualOdometryConfig:
     min_image_information: float = 0.2
     blind_hold: float = 10.0
     blind_turn_band: float = 0.05
+    profile_expansion: bool = False
     forward_evidence: float = 10.0
     scale_memory: float = 10.0
     floor_yaw_tolerance: float = math.radians(1.0)
@@ -258,6 +266,8 @@ class VisualOdometryConfig:
                  number(self.floor_aperture) and 0 <= self.floor_aperture < math.pi / 2,
                  "must be an angle in [0, pi/2) rad")
         require(f"{path}.manhattan", self.manhattan, isinstance(self.manhattan, bool), "must be true or false")
+        require(f"{path}.profile_expansion", self.profile_expansion, isinstance(self.profile_expansion, bool),
+                "must be true or false")
         require(f"{path}.manhattan_strength", self.manhattan_strength,
                  number(self.manhattan_strength) and 0 < self.manhattan_strength <= 1, "must be a share in (0, 1]")
         require(f"{path}.manhattan_spread", self.manhattan_spread,

@@ -172,7 +172,15 @@ class CueSelectionMixin:
             column_yaw, _ = alignment.column_yaw()
             yaw, yaw_source = float(np.clip(column_yaw, -limit_yaw, limit_yaw)), "image"
         else:  # the column profile's shift (NeuroSLAM eqs. 27–29), where one shift stands out
-            shift, stands_out = profile_turn(*self._rotation_profiles, self._max_columns)
+            bearings, expansion = None, 0.0
+            if config.profile_expansion and self._profile_bearings is not None:  # eq. R9
+                bearings = self._profile_bearings
+                # the most a frame can expand: the fastest travel toward the nearest thing the camera sees,
+                # the floor at the image's lower edge
+                nearest = config.camera_height / math.tan(self.vertical_fov / 2)
+                expansion = config.max_speed * dt / nearest
+            shift, stands_out = profile_turn(*self._rotation_profiles, self._max_columns, bearings=bearings,
+                                             max_expansion=expansion)
             if stands_out:
                 yaw = float(np.clip(config.yaw_scale * shift * self._angle_per_sample, -limit_yaw, limit_yaw))
                 yaw_source = "profile"

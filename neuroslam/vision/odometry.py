@@ -110,6 +110,9 @@ class VisualOdometry(CueSelectionMixin):
         self._rotation_profiles: tuple[np.ndarray, np.ndarray] | None = None
         self._equal_angle: dict[int, tuple[np.ndarray, float]] = {}
         self._angle_per_sample = 0.0
+        # each profile sample's bearing from the optical axis (rad; None for a panorama), for eq. R9
+        self._profile_bearings: np.ndarray | None = None
+        self._equal_angle_bearings: dict[int, np.ndarray | None] = {}
         self._ground = None
         if config.planar_motion == "ground":
             if panoramic:
@@ -271,6 +274,7 @@ class VisualOdometry(CueSelectionMixin):
             angles = first + (np.arange(width) + 0.5) * (last - first) / width
             positions = focal * np.tan(angles) + image_width / 2 - 0.5 - left
             result = (positions, (last - first) / width)
+            self._equal_angle_bearings[image_width] = angles
         self._equal_angle[image_width] = result
         return result
 
@@ -293,6 +297,7 @@ class VisualOdometry(CueSelectionMixin):
         translation = crop(grey_image, self.config.translation_region)
         height = crop(grey_image, self.config.height_region)
         positions, self._angle_per_sample = self._equal_angle_columns(grey_image.shape[1])
+        self._profile_bearings = self._equal_angle_bearings.get(grey_image.shape[1])
         columns = rotation.mean(axis=0)
         return {
             "rotation": np.interp(positions, np.arange(len(columns)), columns).astype(np.float32),

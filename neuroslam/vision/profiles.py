@@ -8,9 +8,12 @@ says whether the best shift stands out from the others: where it does not, the p
 
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 
 import numpy as np
+
+from ..errors import InvalidParameterError
 
 __all__ = ["best_shift", "profile_turn", "vertical_shift"]
 
@@ -39,19 +42,58 @@ def best_shift(previous: np.ndarray, current: np.ndarray, max_shift: int, *, cir
     return _refine(shifts, differences, best), float(differences[best])
 
 
-def profile_turn(previous: np.ndarray, current: np.ndarray, max_shift: int, *, circular: bool = False
-                 ) -> tuple[float, bool]:
+def profile_turn(previous: np.ndarray, current: np.ndarray, max_shift: int, *, circular: bool = False,
+                 bearings: np.ndarray | None = None, max_expansion: float = 0.0) -> tuple[float, bool]:
     """NeuroSLAM eq. 28's best shift of ``current`` against ``previous`` (1-D profiles, samples), and whether it
     stands out: the median of the differences over all searched shifts is at least ``_PROFILE_CONTRAST``
     (1.5) times the difference at the best, and at least ``_PROFILE_FLOOR`` above it. A uniform image's
     profiles differ by sensor noise alone, alike at every shift (the ratio 1.13, at most 1.31); a thin band
     of distant structure along the horizon makes one shift fit and the others not, however small its share
-    of the image."""
+    of the image.
+
+    With ``bearings`` (each sample's angle from the optical axis, rad, increasing) and ``max_expansion`` > 0,
+    the shift is found together with the image's expansion (eq. R9): driving forward, what lay at bearing
+    θ lies at θ' with tan θ' = e tan θ (e = Z / (Z - d), the travel d toward depth Z), so the previous
+    profile is compared at each expansion e in [1 / (1 + E), 1 + E] (E = ``max_expansion``), in steps
+    that move the outermost sample by one sample, and at every shift; the best pair's shift is the turn.
+    Without it a robot driving toward a wall with more structure on one side reads a turn: the structure
+    moves outward, one way."""
+    if not (math.isfinite(max_expansion) and max_expansion >= 0):
+        raise InvalidParameterError("max_expansion", max_expansion, "must be a finite number >= 0")
+    if bearings is not None and len(bearings) != len(current):
+        raise InvalidParameterError("bearings", len(bearings), f"must hold one bearing per sample ({len(current)})")
     shifts, differences = _differences(previous, current, max_shift, circular)
+    if bearings is not None and max_expansion > 0 and not circular:
+        differences = _expanded_differences(previous, current, max_shift, bearings, max_expansion, differences)
     best = int(np.argmin(differences))
     lowest, typical = float(differences[best]), float(np.median(differences))
     stands_out = typical >= _PROFILE_CONTRAST * lowest and typical - lowest >= _PROFILE_FLOOR
     return _refine(shifts, differences, best), stands_out
+
+
+def _expanded_differences(previous: np.ndarray, current: np.ndarray, max_shift: int, bearings: np.ndarray,
+                          max_expansion: float, unexpanded: np.ndarray) -> np.ndarray:
+    """Eq. R9: NeuroSLAM eq. 27's differences at every shift for the expansion that fits best, e = 1 (no
+    expansion) among them; over the middle samples, which every shift and expansion keep inside the profile
+    (``unexpanded`` where there are too few of them or no expansion step fits within ``max_expansion``)."""
+    length = len(current)
+    outer = float(np.max(np.abs(bearings)))
+    step_angle = float(bearings[-1] - bearings[0]) / max(length - 1, 1)
+    # tan θ' = e tan θ moves the outermost bearing by sin θ cos θ (e - 1) for a small e - 1: one sample a step
+    step = step_angle / max(math.sin(outer) * math.cos(outer), 1e-6)
+    count = int(math.ceil(max_expansion / step))
+    middle = slice(max_shift, length - max_shift)
+    if count < 1 or length - 2 * max_shift < length // 4:
+        return unexpanded
+    growth = 1.0 + step * np.arange(1, count + 1)
+    expansions = np.concatenate([1.0 / growth[::-1], [1.0], growth])
+    # what the current frame sees at bearing θ lay at atan(tan θ / e) in the previous one
+    source = np.arctan(np.tan(bearings[middle])[None, :] / expansions[:, None])  # (expansions, samples)
+    expanded = np.interp(source, bearings, previous).astype(np.float32)
+    _, positions, _ = _shift_table(length, max_shift, False)
+    shifted = current[positions[:, middle]]  # (shifts, samples), all inside
+    table = np.abs(shifted[None, :, :] - expanded[:, None, :]).mean(axis=2)  # (expansions, shifts)
+    return table[int(np.argmin(table.min(axis=1)))]
 
 
 def _differences(previous: np.ndarray, current: np.ndarray, max_shift: int, circular: bool

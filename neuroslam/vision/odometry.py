@@ -108,11 +108,10 @@ class VisualOdometry(CueSelectionMixin):
         self._previous: dict[str, np.ndarray] | None = None
         # the last two frames' column profiles (NeuroSLAM eqs. 27–29), for the yaw where nothing else sees it
         self._rotation_profiles: tuple[np.ndarray, np.ndarray] | None = None
-        self._equal_angle: dict[int, tuple[np.ndarray, float]] = {}
+        self._equal_angle: dict[int, tuple[np.ndarray, float, np.ndarray | None]] = {}
         self._angle_per_sample = 0.0
         # each profile sample's bearing from the optical axis (rad; None for a panorama), for eq. R9
         self._profile_bearings: np.ndarray | None = None
-        self._equal_angle_bearings: dict[int, np.ndarray | None] = {}
         self._ground = None
         if config.planar_motion == "ground":
             if panoramic:
@@ -254,10 +253,11 @@ class VisualOdometry(CueSelectionMixin):
         start = self._turn_count % _TURN_READINGS if self._turn_count > _TURN_READINGS else 0
         return np.roll(self._turn_readings, -start, axis=0)[:count].copy()
 
-    def _equal_angle_columns(self, image_width: int) -> tuple[np.ndarray, float]:
+    def _equal_angle_columns(self, image_width: int) -> tuple[np.ndarray, float, np.ndarray | None]:
         """Where to sample the rotation region's column profile so that its columns are equally spaced in
         angle (a cylindrical profile, in which a rotation is a uniform shift even for a pinhole camera),
-        and the angle per sample. Cached per image width."""
+        the angle per sample, and each sample's bearing from the optical axis (rad; None for a panorama, eq.
+        R9). Cached per image width."""
         cached = self._equal_angle.get(image_width)
         if cached is not None:
             return cached
@@ -266,15 +266,14 @@ class VisualOdometry(CueSelectionMixin):
         left, right = round(region.left * image_width), max(round(region.right * image_width), 1)
         if self.panoramic:
             positions = (np.arange(width) + 0.5) * (right - left) / width - 0.5
-            result = (positions, 2 * math.pi * (right - left) / image_width / width)
+            result = (positions, 2 * math.pi * (right - left) / image_width / width, None)
         else:
             focal = (image_width / 2) / math.tan(self.horizontal_fov / 2)  # pixels
             first = math.atan((left - image_width / 2) / focal)
             last = math.atan((right - image_width / 2) / focal)
             angles = first + (np.arange(width) + 0.5) * (last - first) / width
             positions = focal * np.tan(angles) + image_width / 2 - 0.5 - left
-            result = (positions, (last - first) / width)
-            self._equal_angle_bearings[image_width] = angles
+            result = (positions, (last - first) / width, angles)
         self._equal_angle[image_width] = result
         return result
 
@@ -296,8 +295,7 @@ class VisualOdometry(CueSelectionMixin):
         rotation = crop(grey_image, self.config.rotation_region)
         translation = crop(grey_image, self.config.translation_region)
         height = crop(grey_image, self.config.height_region)
-        positions, self._angle_per_sample = self._equal_angle_columns(grey_image.shape[1])
-        self._profile_bearings = self._equal_angle_bearings.get(grey_image.shape[1])
+        positions, self._angle_per_sample, self._profile_bearings = self._equal_angle_columns(grey_image.shape[1])
         columns = rotation.mean(axis=0)
         return {
             "rotation": np.interp(positions, np.arange(len(columns)), columns).astype(np.float32),

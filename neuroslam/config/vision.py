@@ -129,8 +129,9 @@ class VisualOdometryConfig:
             together with the image's expansion (eq. R9 of :func:`neuroslam.vision.profiles.profile_turn`), up
             to the fastest travel (``max_speed``) toward the nearest thing the camera sees (the floor at the
             image's lower edge). Without it a robot driving toward a wall with more structure on one side
-            reads a turn (gen3:137: 20° over 5 m of straight, blank floor). Off until its camera benchmark
-            (docs/generalization.md, the twenty-ninth step).
+            reads a turn (gen3:137: 20° over 5 m of straight, blank floor). Off: on the camera benchmark's
+            largely blind worlds it moved SLAM ATE by metres both ways (worst 14.4 → 16.8 m over 14 worlds;
+            docs/generalization.md, the twenty-ninth step, with two known defects).
         forward_evidence: with ``transitions``, the t-statistic of the whole image's expansion (eq. R4 of
             :mod:`neuroslam.vision.pitch`: eq. R1's expansion over its standard error) from which a frame on
             which nothing observes the distance still shows the robot moving in the held speed's direction: the

@@ -2,8 +2,9 @@
 
 Run: ``python benchmarks/generalization.py --out runs/generalization [--odometry wheel] [--quick]
 [--camera-noise] [--generator N] [--workers 2] [--laps 2] [--grid FIELD=VALUE ...]``. A measurement, not a
-test: it asserts nothing and is not part of the pytest run. About 2½ hours with 2 workers on a 2-core
-machine (464,000 frames at about 26 ms each; ``--quick``: 59,000 frames, about 15 minutes).
+test: it asserts nothing and is not part of the pytest run. About an hour with 2 workers on an idle 2-core
+machine (464,000 frames at about 14 ms each; 2½ hours beside other work; ``--quick``: 59,000 frames, about 15
+minutes).
 
 What it does: drives the main route of every world below (2 laps, camera only unless ``--odometry`` says
 otherwise, the default preset) through ``neuroslam sweep`` on a local Ray instance, one drive per worker,

@@ -92,7 +92,9 @@ def _expanded_differences(previous: np.ndarray, current: np.ndarray, max_shift: 
     expanded = np.interp(source, bearings, previous).astype(np.float32)
     _, positions, _ = _shift_table(length, max_shift, False)
     shifted = current[positions[:, middle]]  # (shifts, samples), all inside
-    table = np.abs(shifted[None, :, :] - expanded[:, None, :]).mean(axis=2)  # (expansions, shifts)
+    table = shifted[None, :, :] - expanded[:, None, :]  # (expansions, shifts, samples)
+    np.abs(table, out=table)
+    table = table.sum(axis=2) / table.shape[2]  # the mean absolute difference, (expansions, shifts)
     return table[int(np.argmin(table.min(axis=1)))]
 
 

@@ -83,7 +83,7 @@ def measure(world: str, laps: int) -> None:
     ate = {name: _ate(_dead_reckoning(position[0], yaw[0], steps, turns), position)
            for name, turns in heading.items()}
     by_cue = ", ".join(f"{cue} {np.degrees((camera_turn - true_turn)[cues == cue].sum()):+.1f} "
-                       f"({np.mean(cues == cue):.0%})" for cue in CUES if np.any(cues == cue))
+                       f"({np.mean(cues == cue):.0%})" for cue in (*CUES, "none") if np.any(cues == cue))
     print(f"{world}: {moved.sum():.0f} m, {len(data)} frames")
     print(f"  wheels: drift {drift * 1e3:+.2f} mrad/m on flat straight driving, turn scale {scale:.4f}, "
           f"heading error {np.degrees((wheel_turn - true_turn).sum()):+.1f} deg over the drive")

@@ -296,3 +296,39 @@ def test_a_camera_of_twice_the_resolution_reads_the_same_motion():
         if k:
             assert at_full.forward_speed * 0.1 == pytest.approx(reference[k, 0], abs=0.01)
             assert at_full.yaw_rate * 0.1 == pytest.approx(reference[k, 1], abs=0.005)
+
+
+def test_a_turn_the_camera_stops_seeing_goes_on_at_the_turn_rate_held_for_yaw_hold():
+    # a textured hall, 2 m straight then a half turn over 6 m (3 degrees a frame); 15 frames of the turn are
+    # uniform grey (a camera facing a blank wall): nothing observes the yaw. Eq. R10 holds the last second's
+    # observed turn rate for yaw_hold (1 s, 10 frames), marked held; then, and without it, there is no turn
+    path = arc_path([(2.0, 0.0), (6.0, math.pi)], start=(-4.0, -3.0, 0.0))
+    scene, grey = Scene(**HALL), np.full((120, 160), 0.5, dtype=np.float32)
+    blank = range(40, 55)
+    images = [grey if k in blank else scene.render(*pose) for k, pose in enumerate(path)]
+
+    def run(config: VisualOdometryConfig, save_at: int | None = None) -> tuple[list, VisualOdometry | None]:
+        odometry, motions, saved = VisualOdometry(config), [], None
+        for k, image in enumerate(images):
+            motions.append(odometry.step(image, 0.1 if k else 0.0))
+            if k == save_at:
+                saved = VisualOdometry(config)
+                saved.load_state_dict(odometry.state_dict())
+        return motions, saved
+
+    # blind in yaw: each frame compared with a grey one (the first grey frame is still compared with a
+    # textured one and reads a turn; the first textured one after the grey is compared with grey)
+    blind = range(blank[1], blank[-1] + 2)
+    rate = math.pi / 6  # rad/s: pi over 6 m at 1 m/s
+    motions, saved = run(VisualOdometryConfig(yaw_hold=1.0), save_at=blind[3])
+    held = [motions[k] for k in blind[:9]]
+    assert all(motion.observed.yaw == "held" for motion in held)
+    assert all(motion.yaw_rate == pytest.approx(rate, rel=0.10) for motion in held)
+    assert all(motions[k].observed.yaw == "none" and motions[k].yaw_rate == 0.0 for k in blind[11:])
+    assert [saved.step(image, 0.1) for image in images[blind[3] + 1:]] == motions[blind[3] + 1:]
+    # the default (yaw_hold 0): every blind frame turns 0, marked none
+    motions, _ = run(VisualOdometryConfig())
+    assert all(motions[k].observed.yaw == "none" and motions[k].yaw_rate == 0.0 for k in blind)
+    # a negative hold is refused, naming the field
+    with pytest.raises(ValueError, match="yaw_hold"):
+        VisualOdometryConfig(yaw_hold=-1.0)

@@ -113,7 +113,7 @@ class VisualOdometryConfig:
             sensor noise of 5 grey levels alone gives a uniform image (0.04: noise must never count as seeing),
             and a twentieth of what any texture across the image gives (1–4).
         blind_hold: seconds the last observed speed is held where nothing observes the distance, before it is
-            taken as 0 (a turn rate is never held: where nothing sees the yaw there is no turn). 10: as long as
+            taken as 0 (the turn rate: ``yaw_hold``). 10: as long as
             the scales of the ceiling and the upper image are remembered (``scale_memory``), the robot's motion
             is taken to go on as last seen. (2 s dropped the building's blank stretches to 0 for 55 frames a
             lap, 5.5 m; its SLAM ATE 2.09 m against 1.60 m with 10 s.)
@@ -124,6 +124,12 @@ class VisualOdometryConfig:
             odometry reads while the robot drives straight on the development worlds (0.025 rad/s on the
             building, urban), and a tenth of a corner's (0.5–2 rad/s at the testbed's driver). The default
             since the camera benchmark judged it (docs/generalization.md, the twenty-eighth step).
+        yaw_hold: with ``ground`` and ``transitions``, seconds: where nothing observes the yaw (not the floor,
+            not the whole image, not the column profile), the turn rate averaged over the last second of frames
+            whose yaw was observed is held for at most this long, marked ``held`` (eq. R10 of
+            :meth:`neuroslam.vision.cues.CueSelectionMixin._held_turn`: a turning robot goes on turning, as
+            a driving one goes on driving, ``blind_hold``); beyond it, and with 0, there is no turn. 0 (off):
+            today's default until the camera benchmark judges it.
         profile_expansion: with ``ground`` and ``transitions``: where the column profile gives the yaw (the
             last resort, where neither the floor nor the whole image's alignment sees it), its shift is found
             together with the image's expansion (eq. R9 of :func:`neuroslam.vision.profiles.profile_turn`), up
@@ -211,6 +217,7 @@ class VisualOdometryConfig:
     min_image_information: float = 0.2
     blind_hold: float = 10.0
     blind_turn_band: float = 0.05
+    yaw_hold: float = 0.0
     profile_expansion: bool = False
     forward_evidence: float = 10.0
     scale_memory: float = 10.0
@@ -258,7 +265,7 @@ class VisualOdometryConfig:
                  number(self.level_snap) and 0 <= self.level_snap < self.max_slope,
                  "must be an angle from 0 to max_slope, rad")
         non_negative(path, min_image_information=self.min_image_information, blind_hold=self.blind_hold,
-                      blind_turn_band=self.blind_turn_band,
+                      blind_turn_band=self.blind_turn_band, yaw_hold=self.yaw_hold,
                       forward_evidence=self.forward_evidence,
                       floor_min_information=self.floor_min_information, floor_half_width=self.floor_half_width,
                       slope_half_width=self.slope_half_width)

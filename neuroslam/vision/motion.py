@@ -31,9 +31,10 @@ class Observed:
       stands out from the others (:func:`profile_turn`): a blank floor under an open sky, whose only
       structure is a thin band of distant objects along the horizon;
     - ``held``: nothing observed it; the last observed speed, held for at most ``odometry.blind_hold``
-      seconds (a ramp's foot or top, where the floor is not one plane, holds the speed too; for the height:
+      seconds (a ramp's foot or top, where the floor is not one plane, holds the speed too; for the yaw: the
+      last second's observed turn rate, for at most ``odometry.yaw_hold`` seconds, eq. R10; for the height:
       the pitch holds, as it does between transitions);
-    - ``none``: nothing observed it and nothing is held: zero (a turn rate is never held);
+    - ``none``: nothing observed it and nothing is held: zero;
     - ``external``: given by another sensor (wheels, an IMU).
     """
 

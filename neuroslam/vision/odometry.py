@@ -137,6 +137,10 @@ class VisualOdometry(CueSelectionMixin):
         self._turn_readings = np.zeros((_TURN_READINGS, 2))
         self._turn_count = 0
         self._recent_turns: deque[tuple[float, float]] = deque()
+        # eq. R10: the last second's (dt s, yaw rate rad/s) of frames whose yaw was observed, and the seconds
+        # since the yaw was last observed (inf: never)
+        self._observed_turns: deque[tuple[float, float]] = deque()
+        self._yaw_blind_for = math.inf
         self._bending = False  # whether the frame before was in a transition that held a speed
         # the metric scale of the upper image's expansion (m per unit), learnt where the floor sees the
         # distance: running sums of d e and e² (eq. S1, :meth:`_observed_motion`)
@@ -195,6 +199,8 @@ class VisualOdometry(CueSelectionMixin):
                           "observed.travelled": np.float64(self._travelled),
                           "observed.turn_readings": self._turn_readings_in_order(),
                           "observed.recent_turns": np.array(self._recent_turns, dtype=float).reshape(-1, 2),
+                          "observed.observed_turns": np.array(self._observed_turns, dtype=float).reshape(-1, 2),
+                          "observed.yaw_blind_for": np.float64(self._yaw_blind_for),
                           "observed.bending": np.bool_(self._bending)})
         return state
 
@@ -237,6 +243,9 @@ class VisualOdometry(CueSelectionMixin):
             self._turn_count = len(turns)
             recent = np.asarray(state.get("observed.recent_turns", np.zeros((0, 2))), dtype=float).reshape(-1, 2)
             self._recent_turns = deque((float(a), float(b)) for a, b in recent)
+            observed = np.asarray(state.get("observed.observed_turns", np.zeros((0, 2))), dtype=float).reshape(-1, 2)
+            self._observed_turns = deque((float(a), float(b)) for a, b in observed)
+            self._yaw_blind_for = float(state.get("observed.yaw_blind_for", math.inf))
             self._bending = bool(state.get("observed.bending", False))
             if self._ground is not None:
                 self._finest = self._ground.finest

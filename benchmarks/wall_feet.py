@@ -163,6 +163,12 @@ def wall_motion(
     return float(distance), information
 
 
+def _odometry(config) -> VisualOdometry:
+    """The configuration's visual odometry, with its camera's fields of view."""
+    return VisualOdometry(config.odometry, horizontal_fov=config.horizontal_fov, vertical_fov=config.vertical_fov,
+                          panoramic=config.panoramic)
+
+
 def span_distance(ground: GroundMotion, old: np.ndarray, new: np.ndarray, turn: float, max_distance: float,
                   texture: float, candidates: int = 48) -> tuple[float, float]:
     """(d m, information on d in eq. G3's prior weights) from eq. W1's pixels of one pyramid level ``new`` (3,
@@ -205,12 +211,7 @@ def measure_span(config, images: list[np.ndarray], times: np.ndarray, poses: np.
                  span: int) -> list[str]:
     """Per odometry distance source: the walls over ``span`` frames (:func:`span_distance`) against the truth
     and against the odometry's own distance over the same frames."""
-    odometry = VisualOdometry(
-        config.odometry,
-        horizontal_fov=config.horizontal_fov,
-        vertical_fov=config.vertical_fov,
-        panoramic=config.panoramic,
-    )
+    odometry = _odometry(config)
     finest, turns, taken, sources = [], [], [], []
     rows = []
     for index, image in enumerate(tqdm(images, desc="odometry", leave=False)):
@@ -222,7 +223,8 @@ def measure_span(config, images: list[np.ndarray], times: np.ndarray, poses: np.
         sources.append(motion.observed.distance if motion.observed is not None else "")
         if index < span:
             continue
-        finest[index - span - 1] = None  # keep the last span + 1 images only
+        if index > span:
+            finest[index - span - 1] = None  # keep the last span + 1 images only
         truth = float(np.linalg.norm(poses[index, :2] - poses[index - span, :2]))
         reach = config.odometry.max_speed * float(times[index] - times[index - span])
         turn = float(np.sum(turns[index - span + 1: index + 1]))
@@ -271,12 +273,7 @@ def synthetic(texture: float) -> str:
 
 def measure(config, images: list[np.ndarray], times: np.ndarray, poses: np.ndarray, texture: float) -> list[str]:
     """Per odometry distance source: this cue's coverage and ratio to the truth, from rest and from the odometry."""
-    odometry = VisualOdometry(
-        config.odometry,
-        horizontal_fov=config.horizontal_fov,
-        vertical_fov=config.vertical_fov,
-        panoramic=config.panoramic,
-    )
+    odometry = _odometry(config)
     truth = np.r_[0.0, np.linalg.norm(np.diff(poses[:, :3], axis=0), axis=1)]
     rows = []
     for index, image in enumerate(tqdm(images, desc="odometry", leave=False)):

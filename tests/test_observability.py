@@ -40,6 +40,19 @@ def truth(path: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.hypot(steps[:, 0], steps[:, 1]), steps[:, 2]
 
 
+def run(images: list, config: VisualOdometryConfig, save_at: int | None = None
+        ) -> tuple[list, VisualOdometry | None]:
+    """The odometry's motion at every image (0.1 s apart), and a second odometry restored from the first's state
+    after image ``save_at`` (None: none)."""
+    odometry, motions, saved = VisualOdometry(config), [], None
+    for k, image in enumerate(images):
+        motions.append(odometry.step(image, 0.1 if k else 0.0))
+        if k == save_at:
+            saved = VisualOdometry(config)
+            saved.load_state_dict(odometry.state_dict())
+    return motions, saved
+
+
 def test_a_textured_scene_is_seen_by_the_floor_in_every_degree_of_freedom():
     motions, observed = drive(Scene(**HALL), TURN)
     distance, turn = truth(TURN)
@@ -219,24 +232,15 @@ def test_a_blind_straight_after_a_slow_bend_holds_the_straight_speed_not_the_ben
     first_blind = len(straight) + len(bend) - 1  # the straight after the bend
     driven = truth(path)[0][first_blind - 1:].sum()
 
-    def run(config: VisualOdometryConfig, save_at: int | None = None) -> tuple[list, VisualOdometry | None]:
-        odometry, motions, saved = VisualOdometry(config), [], None
-        for k, image in enumerate(images):
-            motions.append(odometry.step(image, 0.1 if k else 0.0))
-            if k == save_at:
-                saved = VisualOdometry(config)
-                saved.load_state_dict(odometry.state_dict())
-        return motions, saved
-
     middle = first_blind + 80
-    motions, saved = run(VisualOdometryConfig(), save_at=middle)  # the default band, 0.05 rad/s
+    motions, saved = run(images, VisualOdometryConfig(), save_at=middle)  # the default band, 0.05 rad/s
     assert all(motion.observed.distance == "held" for motion in motions[first_blind:])
     assert sum(motion.forward_speed * 0.1 for motion in motions[first_blind:]) == pytest.approx(driven, rel=0.10)
     # saved in the middle of the blind straight, the state continues bit for bit
     assert [saved.step(image, 0.1) for image in images[middle + 1:]] == motions[middle + 1:]
     # the last observed speed (blind_turn_band 0, eq. R8 off) is the bend's: the straight reads less than two
     # thirds
-    motions, _ = run(VisualOdometryConfig(blind_turn_band=0.0))
+    motions, _ = run(images, VisualOdometryConfig(blind_turn_band=0.0))
     assert sum(motion.forward_speed * 0.1 for motion in motions[first_blind:]) < 0.67 * driven
 
 
@@ -307,27 +311,18 @@ def test_a_turn_the_camera_stops_seeing_goes_on_at_the_turn_rate_held_for_yaw_ho
     blank = range(40, 55)
     images = [grey if k in blank else scene.render(*pose) for k, pose in enumerate(path)]
 
-    def run(config: VisualOdometryConfig, save_at: int | None = None) -> tuple[list, VisualOdometry | None]:
-        odometry, motions, saved = VisualOdometry(config), [], None
-        for k, image in enumerate(images):
-            motions.append(odometry.step(image, 0.1 if k else 0.0))
-            if k == save_at:
-                saved = VisualOdometry(config)
-                saved.load_state_dict(odometry.state_dict())
-        return motions, saved
-
     # blind in yaw: each frame compared with a grey one (the first grey frame is still compared with a
     # textured one and reads a turn; the first textured one after the grey is compared with grey)
     blind = range(blank[1], blank[-1] + 2)
     rate = math.pi / 6  # rad/s: pi over 6 m at 1 m/s
-    motions, saved = run(VisualOdometryConfig(yaw_hold=1.0), save_at=blind[3])
+    motions, saved = run(images, VisualOdometryConfig(yaw_hold=1.0), save_at=blind[3])
     held = [motions[k] for k in blind[:9]]
     assert all(motion.observed.yaw == "held" for motion in held)
     assert all(motion.yaw_rate == pytest.approx(rate, rel=0.10) for motion in held)
     assert all(motions[k].observed.yaw == "none" and motions[k].yaw_rate == 0.0 for k in blind[11:])
     assert [saved.step(image, 0.1) for image in images[blind[3] + 1:]] == motions[blind[3] + 1:]
     # the default (yaw_hold 0): every blind frame turns 0, marked none
-    motions, _ = run(VisualOdometryConfig())
+    motions, _ = run(images, VisualOdometryConfig())
     assert all(motions[k].observed.yaw == "none" and motions[k].yaw_rate == 0.0 for k in blind)
     # a negative hold is refused, naming the field
     with pytest.raises(ValueError, match="yaw_hold"):

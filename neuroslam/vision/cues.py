@@ -11,6 +11,7 @@ time after the image last showed the robot moving, and marks the frame blind in 
 from __future__ import annotations
 
 import math
+from collections import deque
 
 import numpy as np
 
@@ -46,6 +47,16 @@ def _scale(sums: np.ndarray) -> float:
         return 0.0
     misfit = math.sqrt(max(0.0, 1.0 - products**2 / (readings * distances)))
     return products / readings if misfit <= _SCALE_MISFIT else 0.0
+
+
+def _last_second(recent: deque[tuple[float, float]], dt: float, rate: float) -> float:
+    """Append (``dt`` s, ``rate``) to ``recent``, drop what lies more than :data:`_TURN_AVERAGE` seconds back
+    (keeping at least one entry), and return the time-weighted mean rate of what remains."""
+    recent.append((dt, rate))
+    span = sum(duration for duration, _ in recent)
+    while len(recent) > 1 and span - recent[0][0] >= _TURN_AVERAGE:
+        span -= recent.popleft()[0]
+    return sum(duration * value for duration, value in recent) / span
 
 
 class CueSelectionMixin:
@@ -84,12 +95,7 @@ class CueSelectionMixin:
     def _turn_rate(self, yaw_change: float, dt: float) -> float:
         """The turn rate |yaw rate| (rad/s) averaged over the last :data:`_TURN_AVERAGE` seconds, this frame's
         yaw change (rad, over ``dt`` s) included."""
-        recent = self._recent_turns
-        recent.append((dt, abs(yaw_change) / dt))
-        span = sum(duration for duration, _ in recent)
-        while len(recent) > 1 and span - recent[0][0] >= _TURN_AVERAGE:
-            span -= recent.popleft()[0]
-        return sum(duration * rate for duration, rate in recent) / span
+        return _last_second(self._recent_turns, dt, abs(yaw_change) / dt)
 
     def _held_turn(self, yaw: float | None, dt: float) -> tuple[float | None, bool]:
         """The frame's yaw change (rad, over ``dt`` s): ``yaw`` where a cue observed it (and it joins the last
@@ -106,12 +112,10 @@ class CueSelectionMixin:
         for at most ``yaw_hold`` seconds after the yaw was last observed. Without it such a turn is lost
         whole: a recorded two-lap drive of gen3:130 lost 201° on 47 frames of two blind turns, more than its
         13,700 other frames' heading errors together (``benchmarks/yaw_sources.py``)."""
+        if self.config.yaw_hold <= 0:  # off: nothing to keep
+            return yaw, False
         if yaw is not None:
-            recent = self._observed_turns
-            recent.append((dt, yaw / dt))
-            span = sum(duration for duration, _ in recent)
-            while len(recent) > 1 and span - recent[0][0] >= _TURN_AVERAGE:
-                span -= recent.popleft()[0]
+            _last_second(self._observed_turns, dt, yaw / dt)
             self._yaw_blind_for = 0.0
             return yaw, False
         self._yaw_blind_for += dt

@@ -132,6 +132,15 @@ class VisualOdometryConfig:
             on the camera benchmark 1 s mended the blind turns of two largely blind worlds (gen3:130 4.58 →
             1.41 m) but also held the column profile's false turns (gen3:111 1.52 → 11.99 m; SLAM ATE 90th
             percentile 5.73 → 8.49 m; docs/generalization.md, the thirty-second step).
+        faint_yaw_contrast: with ``ground`` and ``transitions``: where neither the floor nor the whole image
+            sees the yaw (the image's information on it below ``min_image_information``), the image's yaw is
+            still taken, before the column profile's, where it stands out from the yaws around it by this
+            contrast (eq. R11 of :meth:`neuroslam.vision.pitch.RotationAlignment.column_yaw_contrast`: eq. R5's
+            cost a few pixels of yaw away over its cost at the solution, in the median). The information per
+            pixel cannot tell a faint structure from sensor noise (a uniform image under 3.5 grey levels of
+            noise has as much as a faint edge); the contrast can: noise alone gives 0.95–1.12 (uniform images
+            under 1–8 grey levels). 1.5, the column profile's own stand-out ratio (NeuroSLAM eq. 28), stays
+            clear of it. 0: off, the column profile is the yaw's last resort.
         profile_expansion: with ``ground`` and ``transitions``: where the column profile gives the yaw (the
             last resort, where neither the floor nor the whole image's alignment sees it), its shift is found
             together with the image's expansion (eq. R9 of :func:`neuroslam.vision.profiles.profile_turn`), up
@@ -220,6 +229,7 @@ class VisualOdometryConfig:
     blind_hold: float = 10.0
     blind_turn_band: float = 0.05
     yaw_hold: float = 0.0
+    faint_yaw_contrast: float = 0.0
     profile_expansion: bool = False
     forward_evidence: float = 10.0
     scale_memory: float = 10.0
@@ -268,6 +278,7 @@ class VisualOdometryConfig:
                  "must be an angle from 0 to max_slope, rad")
         non_negative(path, min_image_information=self.min_image_information, blind_hold=self.blind_hold,
                       blind_turn_band=self.blind_turn_band, yaw_hold=self.yaw_hold,
+                      faint_yaw_contrast=self.faint_yaw_contrast,
                       forward_evidence=self.forward_evidence,
                       floor_min_information=self.floor_min_information, floor_half_width=self.floor_half_width,
                       slope_half_width=self.slope_half_width)

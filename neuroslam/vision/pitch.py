@@ -89,6 +89,9 @@ _QUANTISATION = 1.0 / (255.0 * math.sqrt(6.0))
 # from the centre (2 beside it, where such a wall is far ahead), against a quadrant's whole half image
 COLUMN_BLOCKS = 16
 _RETRY = math.radians(1)  # a second start from the floor's yaw when it differs from the previous yaw by more
+# eq. R11: the yaw is moved by these (pixels at the image centre) either way: beyond the blurred image's
+# noise grain (its blur is one pixel), within the column profile's search (NeuroSLAM eq. 28)
+_CONTRAST_PIXELS = (1.0, 2.0, 4.0)
 
 
 class RotationAlignment:
@@ -114,6 +117,8 @@ class RotationAlignment:
         self.information = np.zeros(3)
         self.cost = math.inf  # the last frame's mean Huber cost of eq. R2 at its solution (images in [0, 1])
         self._last: tuple = (None, None, np.zeros(3), False)  # the last step's images, solution, and success
+        # the last column_yaw's solution, its mean Huber cost and its marginal information on the yaw (eq. R11)
+        self._column: tuple = (None, math.inf, 0.0)
         self._pixels: dict[tuple[int, int], tuple] = {}
         # passes over the region's pixels so far (Gauss–Newton iterations and cost evaluations), for the cost
         self.passes = 0
@@ -210,13 +215,46 @@ class RotationAlignment:
         expansion and leaves the yaw to the others. The pitch is solved with them (a level floor's ceiling or
         floor rows fit no column's single depth, but their error is alike left and right of the centre)."""
         previous, current, parameters, found = self._last
+        self._column = (None, math.inf, 0.0)
         if not found:
             return float(parameters[0]), 0.0
         start = np.concatenate([parameters[:2], np.full(COLUMN_BLOCKS, parameters[2])])
         solution, cost, information = self._solve(previous, current, start)
         if not math.isfinite(cost):
             return float(parameters[0]), 0.0
+        self._column = (solution, cost, float(information[0]))
         return float(solution[0]), float(information[0])
+
+    def column_yaw_contrast(self) -> float:
+        """How much the last :meth:`column_yaw` solution's yaw stands out from the yaws around it (eq. R11): the
+        median of eq. R5's mean Huber cost with the yaw moved :data:`_CONTRAST_PIXELS` (pixels at the image
+        centre) either way, everything else held, over the cost at the solution; 0 where there was none.
+
+        Gauss–Newton's information on the yaw is read from the previous image's gradients alone, and sensor
+        noise has gradients too: under 3.5 grey levels of noise a uniform image has as much of it per pixel
+        as a faint real edge. Where the gradients are a structure both images share, the cost is least at the
+        solution and grows away from it; where they are noise, which the next image does not repeat, the cost
+        is the two images' noise at every yaw (the solution's own is least only by the noise it fitted):
+
+            contrast = median_k C(psi* + k) / C(psi*),   k in +-{1, 2, 4} pixels                     (R11)
+
+        The column profile's best shift stands out by the same test (NeuroSLAM eq. 28,
+        :func:`~neuroslam.vision.profiles.profile_turn`)."""
+        solution, cost, information = self._column
+        previous, current = self._last[0], self._last[1]
+        if solution is None or information <= _DAMPING:
+            return 0.0
+        focal, indices, x, y, blocks = self._grid(current.shape[1:])
+        target = current[0].ravel()[indices]
+        costs = []
+        for pixels in _CONTRAST_PIXELS:
+            for sign in (1.0, -1.0):
+                moved = solution.copy()
+                moved[0] += sign * pixels / focal
+                moved_cost, _ = rotation_cost(previous, target, x, y, blocks, moved, focal, self.robust_scale)
+                self.passes += 1
+                costs.append(moved_cost)
+        return float(np.median(costs)) / max(cost, _QUANTISATION**2 / 2)
 
     def upper_expansion(self) -> tuple[float, float]:
         """The last frame's eq. R2 over the region's pixels above the image centre alone, for the expansion

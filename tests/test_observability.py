@@ -327,3 +327,29 @@ def test_a_turn_the_camera_stops_seeing_goes_on_at_the_turn_rate_held_for_yaw_ho
     # a negative hold is refused, naming the field
     with pytest.raises(ValueError, match="yaw_hold"):
         VisualOdometryConfig(yaw_hold=-1.0)
+
+
+def test_driving_out_from_under_a_deck_s_slanted_edge_is_no_turn_with_the_faint_image_s_yaw():
+    # a blank floor under a dark deck 2.5 m up that ends at x = 0 (open sky beyond), a low fence 25–30 m away
+    # along the horizon; the robot drives 10 m straight out from under the deck, crossing its edge at 17
+    # degrees: the edge is slanted in the image and moves up it. The image has too little information per
+    # pixel (below min_image_information) to see the yaw, and the column profile (NeuroSLAM eqs. 27–29) reads
+    # the edge's climb as a sideways shift: tens of degrees of turn. Eq. R11 takes the image's own yaw where it
+    # stands out (odometry.faint_yaw_contrast): eq. R5 fits the edge's motion as the expansion of a near
+    # surface, and the straight stays straight
+    fence = Texture("tiles", level=0.62, scale=4.0, contrast=0.15, line=0.3)
+    deck = Texture("tiles", level=0.85, contrast=0.55, scale=1.0, line=2.0, blank_beyond=0.0)  # dark to x = 0
+    scene = Scene(floor=Texture("blank", level=0.45), ceiling_texture=deck, ceiling=2.5, walls=fence,
+                  half_width=25.0, half_length=30.0, wall_height=1.5)
+    heading = 0.3
+    path = arc_path([(10.0, 0.0)], start=(-6.0 * math.cos(heading), -6.0 * math.sin(heading), heading))
+    motions, observed = drive(scene, path, VisualOdometryConfig(faint_yaw_contrast=1.5))
+    assert abs(math.degrees(motions[1:, 1].sum())) < 3.0  # 0.2 degrees measured
+    assert all(item.yaw == "image" for item in observed[1:])
+    # without eq. R11 the profile's turn (125 degrees measured)
+    motions, observed = drive(scene, path, VisualOdometryConfig())
+    assert abs(math.degrees(motions[1:, 1].sum())) > 30.0
+    assert all(item.yaw == "profile" for item in observed[1:])
+    # a negative contrast is refused, naming the field
+    with pytest.raises(ValueError, match="faint_yaw_contrast"):
+        VisualOdometryConfig(faint_yaw_contrast=-1.0)

@@ -132,12 +132,13 @@ class CueSelectionMixin:
         The information per pixel measures how much an image could say about the yaw, not whether it does: it
         counts sensor noise as structure, so it is set well above noise, and a frame whose only structure is a
         corner, a poster and a wall's foot beside a blank wall falls below it. Such frames gave the column
-        profile's yaw (NeuroSLAM eqs. 27–29) or none. Over the profile's and the no-yaw frames of seven recorded
-        drives of the benchmark's largely blind worlds the image's own yaw was nearer the truth than the
-        profile's in every world (summed absolute error 2,029° → 1,198° at a contrast of 1.5), and it read the
-        turns nobody had seen (gen3:130: 201° lost on 47 frames, the image's yaw 7° off): the profile mistakes
-        a slanted edge moving up or down the image for a turn, and the expansion of what lies to one side;
-        eq. R5 fits both (its pitch, its expansion per column block)."""
+        profile's yaw (NeuroSLAM eqs. 27–29) or none. The profile mistakes a slanted edge moving up or down the
+        image for a turn, and the expansion of what lies to one side; eq. R5 fits both (its pitch, its expansion
+        per column block). Over the profile's and the no-yaw frames of seven recorded drives of the benchmark's
+        largely blind worlds, eq. R5's yaw where eq. R11 reached 1.5 was nearer the truth (summed absolute error
+        2,024° → 1,197°), and it read the turns nobody had seen (gen3:130: 201° lost on 47 frames, eq. R5 4°
+        off). Off by default: on the camera benchmark it left false closures on two worlds
+        (docs/generalization.md, the thirty-third step)."""
         if self.config.faint_yaw_contrast <= 0:
             return None
         column_yaw, _ = self._alignment.column_yaw()

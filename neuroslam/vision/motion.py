@@ -24,7 +24,8 @@ class Observed:
     - ``ceiling`` (distance): the ceiling's motion under the same plane model, in the ceiling height the
       floor last gave it (eq. S1 of :meth:`VisualOdometry._observed_motion`);
     - ``image``: the whole image: its rotation for the yaw and pitch (eqs. R1–R2: walls, ceiling, anything
-      far or near); for the distance, the expansion of the image above its centre in the scale the floor
+      far or near; with ``odometry.faint_yaw_contrast``, also where its information is low but its yaw
+      stands out, eq. R11); for the distance, the expansion of the image above its centre in the scale the floor
       last gave it (eq. S1);
     - ``profile`` (yaw): the shift of the whole image's column profile (NeuroSLAM eqs. 27–29, the paper's own
       yaw), where the image's alignment (eq. R2) has too little information to see the yaw but the profile's best shift

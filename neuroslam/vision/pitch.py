@@ -65,6 +65,13 @@ eq. R1's single expansion leaves a wall near on one side, whose depth changes ac
 the yaw. :meth:`RotationAlignment.column_yaw` solves eq. R2 again with one expansion per column block
 (:data:`COLUMN_BLOCKS`), each a vertical surface's single depth: the yaw the visual odometry takes where the
 floor does not see it.
+
+**Does a faint image see the yaw?** (eq. R11). Gauss–Newton's information on the yaw is read from the previous
+image's gradients, and sensor noise has them too. :meth:`RotationAlignment.column_yaw_contrast` asks the cost
+instead: the median of eq. R5's cost with the yaw moved a few pixels either way over its cost at the solution.
+A structure both images share fits one yaw; noise, which the next image does not repeat, fits every yaw
+alike (0.95–1.12). With ``odometry.faint_yaw_contrast`` the visual odometry takes eq. R5's yaw where the
+information per pixel is too low but this contrast is high enough, before the column profile's.
 """
 
 from __future__ import annotations

@@ -119,9 +119,16 @@ def test_the_faint_image_s_yaw_stands_out_from_structure_not_from_noise():
 
 
 def test_the_faint_image_s_contrast_is_0_without_a_solution():
-    """Before any frame, and where the image has no information at all (a rendered uniform image), eq. R11
-    says nothing stands out."""
+    """Before any frame, after a step whose column_yaw was not solved, and where the image has no information
+    at all (a rendered uniform image), eq. R11 says nothing stands out."""
     alignment = RotationAlignment(horizontal_fov=FOV)
+    assert alignment.column_yaw_contrast() == 0.0
+    # a frame's contrast is that frame's column_yaw's: a new step without it has none
+    first, second = faint(scene(3)), faint(rotated(scene(3), math.radians(2.0), 0.0))
+    alignment.step(blurred_with_gradients(first, 1.0), blurred_with_gradients(second, 1.0), floor_yaw=0.0)
+    alignment.column_yaw()
+    assert alignment.column_yaw_contrast() > 2.0
+    alignment.step(blurred_with_gradients(second, 1.0), blurred_with_gradients(second, 1.0), floor_yaw=0.0)
     assert alignment.column_yaw_contrast() == 0.0
     uniform = blurred_with_gradients(np.full((HEIGHT, WIDTH), 0.5, dtype=np.float32), 1.0)
     alignment.step(uniform, uniform.copy(), floor_yaw=0.0)

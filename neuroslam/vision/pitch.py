@@ -177,6 +177,7 @@ class RotationAlignment:
         yaw, pitch = float(parameters[0]), float(parameters[1])
         self.yaw, self.information, self.cost = yaw, information, cost
         self._last = (previous, current, parameters, math.isfinite(cost))
+        self._column = (None, math.inf, 0.0)  # eq. R11 reads this frame's column_yaw only
         return yaw, pitch
 
     @property

@@ -350,6 +350,11 @@ def test_driving_out_from_under_a_deck_s_slanted_edge_is_no_turn_with_the_faint_
     motions, observed = drive(scene, path, VisualOdometryConfig())
     assert abs(math.degrees(motions[1:, 1].sum())) > 30.0
     assert all(item.yaw == "profile" for item in observed[1:])
-    # a negative contrast is refused, naming the field
+    # with eq. R11 after the profile, the profile's shift stands out on every frame and stays the yaw
+    motions, observed = drive(scene, path, VisualOdometryConfig(faint_yaw_contrast=1.5, faint_yaw_after_profile=True))
+    assert all(item.yaw == "profile" for item in observed[1:])
+    # a negative contrast is refused, naming the field; so is an order that is not true or false
     with pytest.raises(ValueError, match="faint_yaw_contrast"):
         VisualOdometryConfig(faint_yaw_contrast=-1.0)
+    with pytest.raises(ValueError, match="faint_yaw_after_profile"):
+        VisualOdometryConfig(faint_yaw_after_profile="yes")

@@ -144,6 +144,10 @@ class VisualOdometryConfig:
             lowered the SLAM ATE's 90th percentile 5.73 → 4.00 m and met every target on 32 worlds instead of
             30, but two worlds gained closures 2.02–2.16 m along their lane, false by the 2 m bound
             (docs/generalization.md, the thirty-third step).
+        faint_yaw_after_profile: with ``faint_yaw_contrast``, the column profile's yaw stays first where its
+            best shift stands out, and eq. R11's is taken only on the frames nothing else saw. False (the
+            order the benchmark measured first): eq. R11 before the profile, which also mends the profile's
+            false turns (a slanted edge moving up the image) but changes many more frames.
         profile_expansion: with ``ground`` and ``transitions``: where the column profile gives the yaw (the
             last resort, where neither the floor nor the whole image's alignment sees it), its shift is found
             together with the image's expansion (eq. R9 of :func:`neuroslam.vision.profiles.profile_turn`), up
@@ -233,6 +237,7 @@ class VisualOdometryConfig:
     blind_turn_band: float = 0.05
     yaw_hold: float = 0.0
     faint_yaw_contrast: float = 0.0
+    faint_yaw_after_profile: bool = False
     profile_expansion: bool = False
     forward_evidence: float = 10.0
     scale_memory: float = 10.0
@@ -290,6 +295,8 @@ class VisualOdometryConfig:
                  number(self.floor_aperture) and 0 <= self.floor_aperture < math.pi / 2,
                  "must be an angle in [0, pi/2) rad")
         require(f"{path}.manhattan", self.manhattan, isinstance(self.manhattan, bool), "must be true or false")
+        require(f"{path}.faint_yaw_after_profile", self.faint_yaw_after_profile,
+                isinstance(self.faint_yaw_after_profile, bool), "must be true or false")
         require(f"{path}.profile_expansion", self.profile_expansion, isinstance(self.profile_expansion, bool),
                 "must be true or false")
         require(f"{path}.manhattan_strength", self.manhattan_strength,

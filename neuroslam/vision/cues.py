@@ -224,7 +224,7 @@ class CueSelectionMixin:
         elif image_sees_yaw:  # the yaw again with the walls' depths apart (one expansion per column block, R5)
             column_yaw, _ = alignment.column_yaw()
             yaw, yaw_source = float(np.clip(column_yaw, -limit_yaw, limit_yaw)), "image"
-        elif (faint_yaw := self._faint_image_yaw()) is not None:  # eq. R11
+        elif not config.faint_yaw_after_profile and (faint_yaw := self._faint_image_yaw()) is not None:  # eq. R11
             yaw, yaw_source = float(np.clip(faint_yaw, -limit_yaw, limit_yaw)), "image"
         else:  # the column profile's shift (NeuroSLAM eqs. 27–29), where one shift stands out
             bearings, expansion = None, 0.0
@@ -239,6 +239,8 @@ class CueSelectionMixin:
             if stands_out:
                 yaw = float(np.clip(config.yaw_scale * shift * self._angle_per_sample, -limit_yaw, limit_yaw))
                 yaw_source = "profile"
+            elif config.faint_yaw_after_profile and (faint_yaw := self._faint_image_yaw()) is not None:  # R11 after
+                yaw, yaw_source = float(np.clip(faint_yaw, -limit_yaw, limit_yaw)), "image"
             else:
                 yaw, yaw_source = None, ""
         yaw, yaw_held = self._held_turn(yaw, dt)  # eq. R10

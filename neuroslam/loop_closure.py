@@ -38,6 +38,7 @@ def confirm_place(
     drift: float = 0.0,
     odometers: np.ndarray | None = None,
     sessions: np.ndarray | None = None,
+    rival_spread: float | None = None,
 ) -> int:
     """The old experience the last frames confirm the robot is at, or -1.
 
@@ -77,6 +78,12 @@ def confirm_place(
     the rival test: each of them that holds the current view is a hypothesis, and two confirmed ones more
     than ``2 * tolerance`` apart confirm nothing.
 
+    With ``rival_spread`` (m, default ``2 * tolerance``), confirmed hypotheses are rivals beyond that distance
+    from the winner instead: at ``tolerance``, a place is confirmed only where every place the window explains as
+    well lies within the precision the rule asks of each frame. Two confirmed places 1–2 tolerances apart are
+    the same place to the rival test at ``2 * tolerance``, and the better fit between them is a guess whose
+    error can reach ``2 * tolerance``.
+
     With ``odometers`` (and ``sessions``), two confirmed places are distinct also where one pass laid them
     more than ``2 * tolerance`` apart (their odometer readings, in one session, differ by more than that but by
     no more than the window's own travel, over which the rule trusts the odometry), however close the map has
@@ -97,6 +104,8 @@ def confirm_place(
         local_reach: judge a view's spread per hypothesis (see above). drift: m per m of travel, with it.
         odometers: (M,) m, the distance its session had driven when each experience was made; sessions: (M,)
             each experience's session (all one session without it).
+        rival_spread: m, how far from the winner a confirmed hypothesis makes it ambiguous (default
+            ``2 * tolerance``).
     """
     window_poses = np.asarray(window_poses, dtype=float)
     if len(window_poses) < matches:
@@ -155,7 +164,7 @@ def confirm_place(
     best = int(np.argmin(np.where(confirmed & within, misfit / np.maximum(support, 1), np.inf)))
     rivals, winner = hypotheses[confirmed], hypotheses[best]
     spread = np.linalg.norm(map_poses[rivals, :3] - map_poses[winner, :3], axis=1).max()
-    if spread > 2 * tolerance:
+    if spread > (2 * tolerance if rival_spread is None else rival_spread):
         return -1
     if odometers is not None:  # places one pass laid apart are distinct, wherever the map has put them since
         travel = float(np.linalg.norm(np.diff(window_poses[:, :3], axis=0), axis=1).sum())

@@ -315,7 +315,8 @@ class NeuroSLAM(SessionsMixin, StateMixin):
             tolerance=config.confirmation_tolerance, matches=config.confirmation_matches,
             climb_error=config.confirmation_climb_error,
             odometers=self.experience_map.odometers if config.confirmation_laid_apart else None,
-            sessions=self.experience_map.sessions)
+            sessions=self.experience_map.sessions,
+            rival_spread=config.confirmation_rival_spread * config.confirmation_tolerance)
 
     def _is_old(self, experience: int, time: float) -> bool:
         """One experience's entry of :meth:`_old` (without computing the others)."""

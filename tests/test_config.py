@@ -48,6 +48,8 @@ def test_presets_exist_and_differ():
      "experience_map.confirmation_matches", "from 1 to confirmation_window"),
     ({"experience_map": {"confirmation_tolerance": 0}}, "experience_map.confirmation_tolerance", "positive"),
     ({"experience_map": {"confirmation_views": 0}}, "experience_map.confirmation_views", "from 1 to 100"),
+    ({"experience_map": {"confirmation_rival_spread": 0}}, "experience_map.confirmation_rival_spread", "(0, 2]"),
+    ({"experience_map": {"confirmation_rival_spread": 2.5}}, "experience_map.confirmation_rival_spread", "(0, 2]"),
     ({"experience_map": {"confirmation_drift": -0.1}}, "experience_map.confirmation_drift", ">= 0"),
     ({"integrator": "pose-cells"}, "integrator", "odometry, grid-network"),
     ({"grid_network": {"size": 8}}, "grid_network.size", "from 16 to 1024"),

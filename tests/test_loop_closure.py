@@ -2,6 +2,7 @@
 view, views in the wrong arrangement, places out of reach and places the map explains twice do not."""
 
 import math
+from functools import partial
 
 import numpy as np
 import pytest
@@ -282,3 +283,35 @@ def test_two_places_one_pass_laid_apart_are_rivals_wherever_the_map_put_them():
     sessions = np.zeros(40, dtype=int)
     sessions[29:] = 1
     assert confirm(bent, sessions) == 29
+
+
+class _TwiceAlongTheLane:
+    """A straight lane, one experience every half metre; view ``t`` was seen at experience ``t`` and again
+    ``repeat`` experiences on, ``aside`` m to the left (a look that repeats along a uniform lane)."""
+
+    def __init__(self, count, repeat, aside=0.0):
+        self.count, self.repeat = count, repeat
+        lane = np.column_stack([np.arange(count) * SPACING, np.zeros(count), np.zeros(count), np.zeros(count)])
+        self.poses = np.concatenate([lane, lane[repeat:] + [0.0, aside, 0.0, 0.0]])
+
+    def experiences_of(self, template):
+        ids = [template] + ([self.count + template] if template < self.count - self.repeat else [])
+        return np.array(ids, dtype=np.int64)
+
+
+@pytest.mark.parametrize("repeat, confirmed_tight", [(3, False), (1, True)])
+def test_two_confirmed_places_more_than_the_rival_spread_apart_confirm_nothing(repeat, confirmed_tight):
+    """The window's 20 views fit the robot's true place (experience 29) exactly and a place ``repeat`` half
+    metres on (0.2 m aside) within 0.2 m: both are confirmed. 1.5 m apart, the default rule (rivals from
+    2 × tolerance) takes them for one place and the better fit, the true one, wins; with ``rival_spread`` at
+    the tolerance they confirm nothing, though two places 0.5 m apart still confirm the better fit."""
+    themap = _TwiceAlongTheLane(40, repeat, aside=0.2)
+    templates = np.arange(10, 30)
+    odometry = themap.poses[10:30] + [3.0, -2.0, 0.0, 0.0]  # the odometry's own frame, shifted
+    confirm = partial(confirm_place, odometry, templates, 0.0, themap.poses, themap.experiences_of,
+                      np.ones(len(themap.poses), dtype=bool), themap.poses[29], radius=20.0, tolerance=1.0,
+                      matches=16)
+    assert len(themap.experiences_of(29)) == 2  # the current view's two places, both hypotheses
+    assert confirm() == 29
+    assert confirm(rival_spread=2.0) == 29  # the default, spelt out
+    assert confirm(rival_spread=1.0) == (29 if confirmed_tight else -1)

@@ -40,6 +40,7 @@ def test_presets_exist_and_differ():
     ({"odometry": {"working_width": 16}}, "odometry.working_width", "from 32 to 4096"),
     ({"odometry": {"working_width": 160.0}}, "odometry.working_width", "whole number of columns"),
     ({"odometry": {"manhattan_rate": 0}}, "odometry.manhattan_rate", "positive"),
+    ({"odometry": {"floor_shared_information": 1}}, "odometry.floor_shared_information", "true or false"),
     ({"odometry": {"manhattan_first_row": 1.0}}, "odometry.manhattan_first_row", "[0, 1)"),
     ({"odometry": {"manhattan_first_row": -0.1}}, "odometry.manhattan_first_row", "[0, 1)"),
     ({"experience_map": {"relaxation": "gauss"}}, "experience_map.relaxation", "passes, least-squares"),

@@ -73,9 +73,9 @@ def test_one_floor_iteration_is_the_gauss_newton_step_of_eq_g3(distance, turn):
     target = new[0][v.astype(int), u.astype(int)]
     weight_distance, weight_turn, robust_scale = 6.25, 1.0, 0.05
     prior = (0.02, -0.01)
-    result = ground_align(old, target, qx, qy, np.ones_like(qx), FOCAL, cu, cv, height, forward, distance, turn,
-                          prior[0], prior[1], weight_distance, weight_turn, weight_distance, 0.0, 0.0, robust_scale,
-                          1, 1.0, False)
+    result = ground_align(old, target, target, target, qx, qy, np.ones_like(qx), FOCAL, cu, cv, height, forward,
+                          distance, turn, prior[0], prior[1], weight_distance, weight_turn, weight_distance, 0.0, 0.0,
+                          robust_scale, 1, 1.0, False, False, 1.0, 1.0)
     a11, a12, a22, b1, b2, support = _ground_normal(old, target, qx.astype(float), qy.astype(float), FOCAL, cu, cv,
                                                     height, forward, distance, turn, robust_scale)
     normal = np.array([[a11 + weight_distance, a12], [a12, a22 + weight_turn]])
@@ -215,8 +215,11 @@ def _fingerprint() -> str:
     target = new[0][v.astype(int), u.astype(int)]
     numbers = []
     for distance, turn, crosswise in ((0.0, 0.0, 0.0), (0.08, 0.03, 0.25), (-0.05, -0.06, 0.25)):
-        numbers += ground_align(old, target, qx, qy, np.ones_like(qx), FOCAL, 79.5, 59.5, 0.5, 0.1, distance, turn,
-                                0.02, -0.01, 6.25, 1.0, 6.25, 0.0, crosswise, 0.05, 10, 1.0, False)
+        for shared in (False, True):  # eq. G8 (the current image's gradients) or not
+            numbers += ground_align(old, target, new[1][v.astype(int), u.astype(int)],
+                                    new[2][v.astype(int), u.astype(int)], qx, qy, np.ones_like(qx), FOCAL, 79.5, 59.5,
+                                    0.5, 0.1, distance, turn, 0.02, -0.01, 6.25, 1.0, 6.25, 0.3, crosswise, 0.05, 10,
+                                    1.0, False, shared, 3.14, 1.0)
     previous, current = _stack(4)[:, 20:100, 20:140].copy(), _stack(5)[:, 20:100, 20:140].copy()
     y, x = (np.mgrid[0:80, 0:120] - np.array([39.5, 59.5])[:, None, None]).reshape(2, -1).astype(np.float32)
     labels = (2 * (y >= 0) + (x >= 0)).astype(np.intp)

@@ -94,6 +94,12 @@ class VisualOdometryConfig:
             measurement outweighs the constant-velocity prior, handed a quarter of urban's frames to the
             fallbacks, which read them worse (the ceiling cue on facades: 0.65 of the distance, against the
             floor's 0.99 on the same frames; the benchmark's urban SLAM ATE 0.54 -> 3.96 m).
+        floor_shared_information: for ``ground``, the floor's (and ceiling's) information on the distance is eq. G8's,
+            Σ w J_d J'_d, J'_d the same derivative from the current image's gradients at the floor pixel: the
+            part of eq. G3's information both images share. Sensor noise, which the next image does not repeat,
+            adds to eq. G3's Σ w J_d² (a uniform image under 1 grey level of noise passes ``floor_min_information``,
+            and the floor then reads motion at rest) but averages out of eq. G8's; a texture both images show
+            gives both alike. False (the default): eq. G3's.
         floor_aperture: rad; for ``ground``, that information counts only the floor (and ceiling) pixels whose
             image gradient lies more than this from perpendicular to the image motion of a forward step (eq. G6
             of :mod:`neuroslam.vision.ground_motion`): an edge along the path (a wall's foot, a ramp's side)
@@ -231,6 +237,7 @@ class VisualOdometryConfig:
     floor_half_width: float = 0.0
     slope_half_width: float = 0.0
     floor_min_information: float = 0.3
+    floor_shared_information: bool = False
     floor_aperture: float = 0.1745  # 10 degrees (the value the benchmark measured)
     min_image_information: float = 0.2
     blind_hold: float = 10.0
@@ -297,6 +304,8 @@ class VisualOdometryConfig:
         require(f"{path}.manhattan", self.manhattan, isinstance(self.manhattan, bool), "must be true or false")
         require(f"{path}.faint_yaw_after_profile", self.faint_yaw_after_profile,
                 isinstance(self.faint_yaw_after_profile, bool), "must be true or false")
+        require(f"{path}.floor_shared_information", self.floor_shared_information,
+                isinstance(self.floor_shared_information, bool), "must be true or false")
         require(f"{path}.profile_expansion", self.profile_expansion, isinstance(self.profile_expansion, bool),
                 "must be true or false")
         require(f"{path}.manhattan_strength", self.manhattan_strength,

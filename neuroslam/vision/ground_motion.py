@@ -102,6 +102,26 @@ testbed's textured floors: 99 % kept; the urban world's thin far lines, which cr
 2,992 of its 2,993 seeing frames), while the blank ramp's falls from 0.7-1.4 to 0.04-0.2 of the prior's
 weight, below ``min_information``. Eq. G6 only decides; the solution uses every pixel. The odometry's
 default is 10° (``odometry.floor_aperture``; see that setting for what it does over the benchmark).
+
+Eq. G6 reads the previous image's gradients alone, and sensor noise has gradients: a blank floor under 1 grey
+level of independent noise has about 0.5 of the prior's weight (3.5 levels: 6), above ``min_information``, and
+the floor then reads motion at rest (summed over 4 s still: up to 22 degrees and 1.2 m). What a texture has
+and noise has not is that the next image shows it again. With ``shared_information`` the information that
+decides is the part both images share, at the finest level's solution:
+
+    I'_d = sum over the pixels of eq. G6 of  w J_d J'_d,
+    z = I'_d / sqrt(A s_g^2 sum over the same pixels of  w^2 |d pi / dd|^2 (J_d^2 + J'_d^2))              (G8)
+
+J'_d = grad I' . d pi / dd, the same derivative from the current image's gradients at the floor pixel (eqs. G1
+and G2 at rest). Noise the two images do not share averages out of the sum; its spread under noise is the
+denominator: s_g^2 = s_r^2 / (4 s^2), the gradient's noise variance (per axis) of an image blurred by s pixels
+whose residual against the other has the variance s_r^2 (two images under noise n differ by 2 n^2 / (4 pi s^2);
+one's gradient has n^2 / (8 pi s^4)), and A = 2 pi s^2 / step, the floor pixels (every ``step``-th column) one
+pixel's blurred noise reaches. The floor sees the distance where z > 3 (a normal tail of 0.13 %: a noise
+frame passes about once in 740) and I'_d / the prior's weight >= ``min_information``. Where it does, the
+solution is eq. G3's unchanged (bit for bit); where eq. G3 saw the distance and eq. G8 does not, the level is
+solved again with the distance the prior's. A clean render's residual is its interpolation's, small: a
+texture there stands 30-70 standard errors out, sparse marks (a 4 cm spot every 0.5 m) 35-70.
 """
 
 from __future__ import annotations
@@ -181,6 +201,9 @@ class GroundMotion:
             ``min_information`` is compared with) only where its image gradient lies more than this from
             perpendicular to the image motion a forward step gives it. 0 (this class's default) counts every
             pixel; the odometry passes ``odometry.floor_aperture`` (10°, see there).
+        shared_information: the information on the distance (what ``min_information`` is compared with) is eq.
+            G8's, the part both images share, not the previous image's alone (see the module's notes); False
+            (this class's default) is eq. G3's.
         levels: resolution levels, each half the previous (2: half, then full resolution), each blurred
             by ``smoothing`` of its own pixels; the coarsest sets how far the motion may be from the
             previous frame's and still be found (0.1 m, or 0.08 m with 0.06 rad, from rest at 160 x 120
@@ -191,7 +214,7 @@ class GroundMotion:
                  first_row: float = 0.3, smoothing: float = 1.0, robust_scale: float = 0.05, iterations: int = 10,
                  min_information: float = 0.3, near_row: float = 0.0, near_information: float = 3.0,
                  near_tolerance: float = 0.03, levels: int = 2, surface: str = "floor", half_width: float = 0.0,
-                 aperture: float = 0.0, slope_half_width: float = 0.0):
+                 aperture: float = 0.0, slope_half_width: float = 0.0, shared_information: bool = False):
         if surface not in ("floor", "ceiling"):
             raise ValueError(f"surface={surface!r}: must be 'floor' or 'ceiling'")
         if not half_width >= 0 or (half_width and surface != "floor"):
@@ -204,6 +227,7 @@ class GroundMotion:
         if not 0 <= aperture < math.pi / 2:
             raise ValueError(f"aperture={aperture!r}: must be in [0, pi/2) radians")
         self.aperture = float(aperture)
+        self.shared_information = bool(shared_information)
         self._crosswise = math.sin(self.aperture) ** 2
         self.half_width = float(half_width)
         self.surface = surface
@@ -227,6 +251,8 @@ class GroundMotion:
         # the floor's information on (d, w) at the last frame's solution (Σ w J², data term only), as
         # multiples of the prior's weights (robust_scale / s_d)², (robust_scale / s_w)²
         self.information = np.zeros(2)
+        # eq. G8: how many of its standard errors the information both images share stands above zero
+        self.standing = 0.0
         self._previous: list[np.ndarray] | None = None
         # Gauss–Newton iterations run so far, each one pass over the floor pixels of its level (for the cost)
         self.passes = 0
@@ -361,7 +387,7 @@ class GroundMotion:
         for level, (old, new) in enumerate(zip(previous, current, strict=True)):
             finest = level == len(current) - 1  # coarser levels only start the next: stop them sooner
             distance, turn = self._align(old, new, distance, turn, prior, tolerance=1.0 if finest else 5.0,
-                                         whole=whole)
+                                         whole=whole, shared=self.shared_information and finest)
         if self.near_row > 0 and not whole:  # eq. G4: the yaw again on the near floor alone, from the full solution
             near_turn, information = self._align(previous[-1], current[-1], distance, turn, prior, near_only=True)
             if (information >= self.near_information * (self.robust_scale / _PRIOR_TURN) ** 2
@@ -387,27 +413,36 @@ class GroundMotion:
         return float(distance), information
 
     def _align(self, old: np.ndarray, new: np.ndarray, distance: float, turn: float, prior: np.ndarray, *,
-               tolerance: float = 1.0, near_only: bool = False, whole: bool = False) -> tuple[float, float]:
+               tolerance: float = 1.0, near_only: bool = False, whole: bool = False,
+               shared: bool = False) -> tuple[float, float]:
         """Gauss–Newton on eq. G3 at one resolution, until an update is below ``tolerance`` × (0.1 mm, 0.01 mrad)
         or ``iterations`` have run (:func:`~.kernels.ground_align`, one compiled pass over the pixels each).
 
         With ``near_only``, eq. G4: the yaw alone over the near floor, the distance held; returns the yaw and
         the near floor's information on it (Σ w J_w² at the last iteration) instead. With ``whole``, over the
-        whole floor, beyond eq. G5's lane too (:meth:`whole_floor_distance`).
+        whole floor, beyond eq. G5's lane too (:meth:`whole_floor_distance`). With ``shared`` (the finest level,
+        where ``shared_information`` is set), the information on the distance is eq. G8's.
         """
         focal, centre_u, centre_v, indices, ground, flow = self._floor(new.shape[1:], near_only, whole=whole)
         target = new[0].ravel()[indices]
+        if shared:  # eq. G8: the current image's gradients at the floor pixels
+            target_u, target_v = new[1].ravel()[indices], new[2].ravel()[indices]
+        else:
+            target_u = target_v = target
         weight_distance = (self.robust_scale / _PRIOR_DISTANCE) ** 2
         weight_turn = (self.robust_scale / _PRIOR_TURN) ** 2
-        distance, turn, information_distance, information_turn, support, near_information, done = ground_align(
-            old, target, ground[0], ground[1], flow, focal, centre_u, centre_v, self._height, self.camera_forward,
-            float(distance), float(turn), float(prior[0]), float(prior[1]), weight_distance, weight_turn,
-            weight_distance * self.distance_certainty, self.min_information, self._crosswise, self.robust_scale,
-            self.iterations, tolerance, near_only)
+        (distance, turn, information_distance, information_turn, support, near_information, done,
+         standing) = ground_align(
+            old, target, target_u, target_v, ground[0], ground[1], flow, focal, centre_u, centre_v, self._height,
+            self.camera_forward, float(distance), float(turn), float(prior[0]), float(prior[1]), weight_distance,
+            weight_turn, weight_distance * self.distance_certainty, self.min_information, self._crosswise,
+            self.robust_scale, self.iterations, tolerance, near_only, shared,
+            2 * math.pi * self.smoothing**2 / (2 if new.shape[2] > 100 else 1), self.smoothing)
         self.passes += done
         if near_only:
             return turn, near_information
         if information_distance >= 0:  # an iteration ran
             self.information = np.array([information_distance, information_turn])
+            self.standing = standing
             self.support = support
         return distance, turn

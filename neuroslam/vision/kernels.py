@@ -89,11 +89,14 @@ def _sample32(flat_image, flat_u, flat_v, columns, u, v, limit_u, limit_v):
 
 
 @numba.njit(inline="always", **_JIT)
-def _floor_sums(old, target, ground_x, ground_y, flow, focal, centre_u, centre_v, height, forward, distance, turn,
-                robust_scale, crosswise):
+def _floor_sums(old, target, target_u, target_v, ground_x, ground_y, flow, focal, centre_u, centre_v, height,
+                forward, distance, turn, robust_scale, crosswise):
     """One pass of eqs. G1–G3 over the floor pixels at (``distance``, ``turn``): the Huber-weighted normal
     equations' entries (a11, a12, a22: on (d, w)), their right-hand sides (Σ w J_d r, Σ w J_w r), eq. G6's
-    information on the distance (its pixels alone, where ``crosswise`` > 0) and the pixels in view."""
+    information on the distance (its pixels alone, where ``crosswise`` > 0), the pixels in view, and eq. G8's
+    information on the distance (Σ w J_d J'_d over the same pixels, J'_d from the current image's gradients
+    ``target_u``, ``target_v`` at the floor pixels; and over every pixel), and the sums of its terms' squares
+    (the same two)."""
     rows, columns = old.shape[1], old.shape[2]
     flat_image, flat_u, flat_v = old[0].ravel(), old[1].ravel(), old[2].ravel()
     f32 = np.float32
@@ -104,6 +107,7 @@ def _floor_sums(old, target, ground_x, ground_y, flow, focal, centre_u, centre_v
     cu, cv, scale, across_share = f32(centre_u), f32(centre_v), f32(robust_scale), f32(crosswise)
     zero, near = f32(0.0), f32(0.2)
     a11 = a12 = a22 = b_distance = b_turn = seen = visible_count = zero
+    shared = shared_across = squares = squares_across = residual_squares = zero
     for k in range(target.shape[0]):
         qx, qy = ground_x[k], ground_y[k]
         px = d * ch + c * qx - s * qy  # eq. G2
@@ -133,25 +137,43 @@ def _floor_sums(old, target, ground_x, ground_y, flow, focal, centre_u, centre_v
         # eq. G6: the pixels whose gradient runs across their image motion
         across = squared >= across_share * (gradient_u * gradient_u + gradient_v * gradient_v) * flow[k]
         seen += weight * squared if across else zero
+        # eq. G8: the current image's own derivative along the same motion, at its pixel (eqs. G1, G2 at rest)
+        inverse_now = f32(1.0) / max(qx - a, near)
+        d_py_now = -f * target_u[k] * inverse_now
+        d_px_now = -(d_py_now * qy + f * h * target_v[k] * inverse_now) * inverse_now
+        jacobian_now = d_px_now * ch + d_py_now * sh
+        product = wd * jacobian_now
+        shared += product
+        shared_across += product if across else zero
+        # eq. G8's variance under image noise, per unit of the gradients' noise variance
+        spread = weight * weight * flow[k] * (squared + jacobian_now * jacobian_now)
+        squares += spread
+        squares_across += spread if across else zero
+        residual_squares += residual * residual if visible else zero
     return (float(a11), float(a12), float(a22), float(b_distance), float(b_turn), float(seen),
-            int(visible_count))
+            int(visible_count), float(shared), float(shared_across), float(squares), float(squares_across),
+            float(residual_squares))
 
 
 @numba.njit(**_JIT)
-def ground_align(old, target, ground_x, ground_y, flow, focal, centre_u, centre_v, height, forward, distance, turn,
-                 prior_distance, prior_turn, weight_distance, weight_turn, prior_weight, min_information, crosswise,
-                 robust_scale, iterations, tolerance, near_only):
+def ground_align(old, target, target_u, target_v, ground_x, ground_y, flow, focal, centre_u, centre_v, height,
+                 forward, distance, turn, prior_distance, prior_turn, weight_distance, weight_turn, prior_weight,
+                 min_information, crosswise, robust_scale, iterations, tolerance, near_only, shared, noise_area,
+                 smoothing):
     """Gauss–Newton on eq. G3 (or, with ``near_only``, eq. G4's yaw alone) at one resolution.
 
     ``old``: the previous image's (3, rows, columns) stack (blurred image, horizontal and vertical gradient);
-    ``target``: the current image's intensity at the floor pixels; ``ground_x``, ``ground_y``: their ground
+    ``target``: the current image's intensity at the floor pixels, ``target_u``, ``target_v`` its gradients there
+    (read only with ``shared``); ``ground_x``, ``ground_y``: their ground
     points q (m, eq. G1); ``flow``: |d pi / dd|² of eq. G6 (px² / m²); ``focal``, ``centre_u``, ``centre_v``:
     px; ``height``: the plane below (positive) or above (negative) the camera, m; ``forward``: the camera
     ahead of the turning axis, m; (``distance``, ``turn``): the start, m and rad; (``prior_distance``,
     ``prior_turn``): eq. G3's prior; ``weight_distance``, ``weight_turn``: its weights (robust_scale / s)²;
     ``prior_weight``: the distance's weight after eq. G3a; ``min_information``: in the prior's weights;
     ``crosswise``: sin²(aperture) of eq. G6 (0: every pixel counts); ``tolerance``: stop once an update is below
-    tolerance × (0.1 mm, 0.01 mrad); ``near_only``: eq. G4.
+    tolerance × (0.1 mm, 0.01 mrad); ``near_only``: eq. G4; ``shared``: the information on the distance is eq.
+    G8's (the part both images share, where it stands out of its own noise), not eq. G3's (the previous image's
+    alone); ``noise_area``: how many floor pixels one pixel's noise reaches (the blur's), for eq. G8's test.
 
     Returns (distance, turn, information on the distance (eq. G6's, in the prior's weights), information on the
     yaw (in its prior's weight), support (share of the pixels in view), the near floor's Σ w J_w², iterations).
@@ -159,36 +181,57 @@ def ground_align(old, target, ground_x, ground_y, flow, focal, centre_u, centre_
     """
     count = target.shape[0]
     information_distance = information_turn = support = near_information = -1.0
+    standing = 0.0
     done = 0
-    for _ in range(iterations):
-        done += 1
-        a11, a12, a22, b_distance, b_turn, seen, visible_count = _floor_sums(
-            old, target, ground_x, ground_y, flow, focal, centre_u, centre_v, height, forward, distance, turn,
-            robust_scale, crosswise)
-        if near_only:  # eq. G4: the yaw alone, the distance held
-            near_information = a22
-            delta_turn = -(b_turn + weight_turn * (turn - prior_turn)) / (a22 + weight_turn)
+    start_distance, start_turn = distance, turn
+    held = False  # eq. G8 refused what eq. G3 saw: solved again with the distance the prior's
+    for _attempt in range(2):
+        common_across = squares_across = residual_squares = visible_count = 0.0
+        for _ in range(iterations):
+            done += 1
+            (a11, a12, a22, b_distance, b_turn, seen, visible_count, common, common_across, squares, squares_across,
+             residual_squares) = _floor_sums(
+                old, target, target_u, target_v, ground_x, ground_y, flow, focal, centre_u, centre_v, height,
+                forward, distance, turn, robust_scale, crosswise)
+            if near_only:  # eq. G4: the yaw alone, the distance held
+                near_information = a22
+                delta_turn = -(b_turn + weight_turn * (turn - prior_turn)) / (a22 + weight_turn)
+                turn += delta_turn
+                if abs(delta_turn) < 1e-5 * tolerance:
+                    break
+                continue
+            if crosswise <= 0:  # every pixel counts
+                seen, common_across, squares_across = a11, common, squares
+            information_distance, information_turn = seen / weight_distance, a22 / weight_turn
+            if held or seen < min_information * weight_distance:  # the floor does not see the distance: the prior's
+                a11 = a12 = b_distance = 0.0
+            b1 = b_distance + prior_weight * (distance - prior_distance)
+            b2 = b_turn + weight_turn * (turn - prior_turn)
+            n11, n22 = a11 + prior_weight, a22 + weight_turn
+            determinant = n11 * n22 - a12 * a12  # positive: the prior keeps the 2 x 2 system regular
+            delta_distance = -(n22 * b1 - a12 * b2) / determinant
+            delta_turn = -(n11 * b2 - a12 * b1) / determinant
+            distance += delta_distance
             turn += delta_turn
-            if abs(delta_turn) < 1e-5 * tolerance:
+            support = visible_count / max(count, 1)
+            if abs(delta_distance) < 1e-4 * tolerance and abs(delta_turn) < 1e-5 * tolerance:
                 break
-            continue
-        if crosswise <= 0:  # every pixel counts
-            seen = a11
-        information_distance, information_turn = seen / weight_distance, a22 / weight_turn
-        if seen < min_information * weight_distance:  # the floor does not see the distance: the prior's
-            a11 = a12 = b_distance = 0.0
-        b1 = b_distance + prior_weight * (distance - prior_distance)
-        b2 = b_turn + weight_turn * (turn - prior_turn)
-        n11, n22 = a11 + prior_weight, a22 + weight_turn
-        determinant = n11 * n22 - a12 * a12  # positive: the prior keeps the 2 x 2 system regular
-        delta_distance = -(n22 * b1 - a12 * b2) / determinant
-        delta_turn = -(n11 * b2 - a12 * b1) / determinant
-        distance += delta_distance
-        turn += delta_turn
-        support = visible_count / max(count, 1)
-        if abs(delta_distance) < 1e-4 * tolerance and abs(delta_turn) < 1e-5 * tolerance:
+        if not shared or near_only or held or done == 0:
             break
-    return distance, turn, information_distance, information_turn, support, near_information, done
+        # eq. G8 at the solution (the last linearisation): the information both images share, where it stands
+        # out of its own noise by three standard errors. The gradients' noise variance comes from the residuals':
+        # two images under noise sigma_n, blurred by s, differ by 2 sigma_n² / (4 pi s²); the gradient of one
+        # has sigma_n² / (8 pi s⁴) per axis, a quarter s² of that difference
+        gradient_noise = residual_squares / max(visible_count, 1.0) / (4.0 * smoothing * smoothing)
+        standing = common_across / max(math.sqrt(squares_across * noise_area * gradient_noise), 1e-30)
+        shared_information = common_across / weight_distance if standing > 3.0 else 0.0
+        if information_distance < min_information or shared_information >= min_information:
+            information_distance = shared_information
+            break
+        held, distance, turn = True, start_distance, start_turn
+    if held:
+        information_distance = 0.0
+    return distance, turn, information_distance, information_turn, support, near_information, done, standing
 
 
 @numba.njit(inline="always", **_JIT)

@@ -121,7 +121,8 @@ class VisualOdometry(CueSelectionMixin):
                                         camera_forward=config.camera_forward, near_row=config.near_floor_row,
                                         half_width=config.floor_half_width, aperture=config.floor_aperture,
                                         min_information=config.floor_min_information,
-                                        slope_half_width=config.slope_half_width)
+                                        slope_half_width=config.slope_half_width,
+                                        shared_information=config.floor_shared_information)
         self._alignment = self.transitions = None
         self._speed = 0.0  # m/s, the last speed measured off a transition (held across one)
         # where nothing observes the distance, this speed is held (odometry.blind_hold)
@@ -153,7 +154,8 @@ class VisualOdometry(CueSelectionMixin):
         if self._ground is not None and config.height_model == "transitions":
             self._ceiling = GroundMotion(horizontal_fov=horizontal_fov, camera_height=1.0,
                                          camera_forward=config.camera_forward, surface="ceiling",
-                                         min_information=config.floor_min_information, aperture=config.floor_aperture)
+                                         min_information=config.floor_min_information, aperture=config.floor_aperture,
+                                         shared_information=config.floor_shared_information)
         self._finest: np.ndarray | None = None  # the last image blurred, with gradients (eqs. R1–R2)
         # eqs. M1–M3: the heading against the floor's and the ceiling's straight lines
         self.lines = (StructureHeading(horizontal_fov=horizontal_fov, strength=config.manhattan_strength,

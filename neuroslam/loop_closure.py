@@ -79,16 +79,16 @@ def confirm_place(
     than ``2 * tolerance`` apart confirm nothing.
 
     With ``rival_spread`` (m, default ``2 * tolerance``), confirmed hypotheses are rivals beyond that distance
-    from the winner instead: at ``tolerance``, a place is confirmed only where every place the window explains as
-    well lies within the precision the rule asks of each frame. Two confirmed places 1–2 tolerances apart are
-    the same place to the rival test at ``2 * tolerance``, and the better fit between them is a guess whose
-    error can reach ``2 * tolerance``.
+    from the winner instead (in the map, and by the odometers below): at ``tolerance``, a place is confirmed
+    only where every place the window explains as well lies within the precision the rule asks of each frame.
+    Two confirmed places 1–2 tolerances apart are the same place to the rival test at ``2 * tolerance``, and
+    the better fit between them is a guess whose error can reach ``2 * tolerance``.
 
     With ``odometers`` (and ``sessions``), two confirmed places are distinct also where one pass laid them
-    more than ``2 * tolerance`` apart (their odometer readings, in one session, differ by more than that but by
-    no more than the window's own travel, over which the rule trusts the odometry), however close the map has
-    since put them: a map bent by its closures can hold a place and one laid metres on from it within
-    centimetres, and the better fit between them is then a guess.
+    more than ``2 * tolerance`` (or ``rival_spread``) apart (their odometer readings, in one session, differ by
+    more than that but by no more than the window's own travel, over which the rule trusts the odometry),
+    however close the map has since put them: a map bent by its closures can hold a place and one laid metres
+    on from it within centimetres, and the better fit between them is then a guess.
 
     Args:
         window_poses: (K, 4) odometry poses (x, y, z, yaw; m, rad) of the window's frames, oldest first;
@@ -163,14 +163,15 @@ def confirm_place(
         return -1
     best = int(np.argmin(np.where(confirmed & within, misfit / np.maximum(support, 1), np.inf)))
     rivals, winner = hypotheses[confirmed], hypotheses[best]
+    distinct = 2 * tolerance if rival_spread is None else rival_spread
     spread = np.linalg.norm(map_poses[rivals, :3] - map_poses[winner, :3], axis=1).max()
-    if spread > (2 * tolerance if rival_spread is None else rival_spread):
+    if spread > distinct:
         return -1
     if odometers is not None:  # places one pass laid apart are distinct, wherever the map has put them since
         travel = float(np.linalg.norm(np.diff(window_poses[:, :3], axis=0), axis=1).sum())
         apart = np.abs(odometers[rivals] - odometers[winner])
         if sessions is not None:
             apart = np.where(sessions[rivals] == sessions[winner], apart, 0.0)
-        if ((apart > 2 * tolerance) & (apart <= travel)).any():
+        if ((apart > distinct) & (apart <= travel)).any():
             return -1
     return int(winner)

@@ -285,6 +285,25 @@ def test_two_places_one_pass_laid_apart_are_rivals_wherever_the_map_put_them():
     assert confirm(bent, sessions) == 29
 
 
+def test_the_rival_spread_also_judges_places_one_pass_laid_apart():
+    """The same two places, 0.5 m apart in the map, laid 1.5 m apart by one pass: one place to the default rule
+    (within 2 × tolerance), two to a rival spread of one tolerance, which then confirms nothing."""
+    themap = _Map(_path(40, turn_at=25))
+    odometry, templates = _revisit(themap, 30)
+    window = slice(10, 30)
+    laid = np.arange(40) * SPACING
+    laid[29:] += 1.0  # 28 and 29 laid 1.5 m apart
+
+    def confirm(**spread):
+        return confirm_place(odometry[window], templates[window], 0.0, themap.poses, themap.experiences_of,
+                             np.ones(40, dtype=bool), themap.poses[29], radius=5.0, tolerance=1.0, matches=16,
+                             odometers=laid, **spread)
+
+    assert confirm() == 29
+    assert confirm(rival_spread=1.0) == -1
+    assert confirm(rival_spread=1.6) == 29
+
+
 class _TwiceAlongTheLane:
     """A straight lane, one experience every half metre; view ``t`` was seen at experience ``t`` and again
     ``repeat`` experiences on, ``aside`` m to the left (a look that repeats along a uniform lane)."""

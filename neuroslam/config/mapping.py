@@ -69,7 +69,8 @@ class ExperienceMapConfig:
             apart, the odometry had laid them 2.3 m apart): gone; the other 42 the same to the digit
             (docs/generalization.md, the twenty-sixth step). False: the rule before it.
         confirmation_rival_spread: in ``confirmation_tolerance``: a confirmed place with another place the window
-            confirms as well farther than this from it is not confirmed (:func:`~neuroslam.loop_closure.confirm_place`'s
+            confirms as well farther than this from it, in the map or by one pass's odometer (with
+            ``confirmation_laid_apart``), is not confirmed (:func:`~neuroslam.loop_closure.confirm_place`'s
             ``rival_spread``). 2 (the default, the rule before): two places are distinct from twice the tolerance,
             as in the view rule. 1: only where every place the window explains as well lies within the tolerance
             each frame is held to; between 1 and 2 tolerances the better fit is a guess, and its error reaches the

@@ -175,8 +175,9 @@ def ground_align(old, target, target_u, target_v, ground_x, ground_y, flow, foca
     G8's (the part both images share, where it stands out of its own noise), not eq. G3's (the previous image's
     alone); ``noise_area``: how many floor pixels one pixel's noise reaches (the blur's), for eq. G8's test.
 
-    Returns (distance, turn, information on the distance (eq. G6's, in the prior's weights), information on the
-    yaw (in its prior's weight), support (share of the pixels in view), the near floor's Σ w J_w², iterations).
+    Returns (distance, turn, information on the distance (eq. G6's, or with ``shared`` eq. G8's where it stands
+    out and 0 where not, in the prior's weights), information on the yaw (in its prior's weight), support (share
+    of the pixels in view), the near floor's Σ w J_w², iterations, eq. G8's standing z (0 without ``shared``)).
     Each information and the support are the last linearisation's; −1 where no iteration set them.
     """
     count = target.shape[0]

@@ -332,5 +332,5 @@ def test_two_confirmed_places_more_than_the_rival_spread_apart_confirm_nothing(r
                       matches=16)
     assert len(themap.experiences_of(29)) == 2  # the current view's two places, both hypotheses
     assert confirm() == 29
-    assert confirm(rival_spread=2.0) == 29  # the default, spelt out
+    assert confirm(rival_spread=2.0) == 29  # the rule before
     assert confirm(rival_spread=1.0) == (29 if confirmed_tight else -1)

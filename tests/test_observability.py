@@ -392,15 +392,15 @@ def test_driving_out_from_under_a_deck_s_slanted_edge_is_no_turn_with_the_faint_
                   half_width=25.0, half_length=30.0, wall_height=1.5)
     heading = 0.3
     path = arc_path([(10.0, 0.0)], start=(-6.0 * math.cos(heading), -6.0 * math.sin(heading), heading))
-    motions, observed = drive(scene, path, VisualOdometryConfig(faint_yaw_contrast=1.5))
+    motions, observed = drive(scene, path, VisualOdometryConfig(faint_yaw_contrast=1.5, faint_yaw_after_profile=False))
     assert abs(math.degrees(motions[1:, 1].sum())) < 3.0  # 0.2 degrees measured
     assert all(item.yaw == "image" for item in observed[1:])
     # without eq. R11 the profile's turn (125 degrees measured)
-    motions, observed = drive(scene, path, VisualOdometryConfig())
+    motions, observed = drive(scene, path, VisualOdometryConfig(faint_yaw_contrast=0.0))
     assert abs(math.degrees(motions[1:, 1].sum())) > 30.0
     assert all(item.yaw == "profile" for item in observed[1:])
-    # with eq. R11 after the profile, the profile's shift stands out on every frame and stays the yaw
-    motions, observed = drive(scene, path, VisualOdometryConfig(faint_yaw_contrast=1.5, faint_yaw_after_profile=True))
+    # with eq. R11 after the profile (the default), the profile's shift stands out on every frame and stays the yaw
+    motions, observed = drive(scene, path, VisualOdometryConfig())
     assert all(item.yaw == "profile" for item in observed[1:])
     # a negative contrast is refused, naming the field; so is an order that is not true or false
     with pytest.raises(ValueError, match="faint_yaw_contrast"):

@@ -145,15 +145,18 @@ class VisualOdometryConfig:
             cost a few pixels of yaw away over its cost at the solution, in the median). The information per
             pixel cannot tell a faint structure from sensor noise (a uniform image under 3.5 grey levels of
             noise has as much as a faint edge); the contrast can: noise alone gives 0.95–1.12 (uniform images
-            under 1–8 grey levels). 1.5, the column profile's own stand-out ratio (NeuroSLAM eq. 28), stays
-            clear of it. 0 (off): the column profile is the yaw's last resort. On the camera benchmark 1.5
-            lowered the SLAM ATE's 90th percentile 5.73 → 4.00 m and met every target on 32 worlds instead of
-            30, but two worlds gained closures 2.02–2.16 m along their lane, false by the 2 m bound
-            (docs/generalization.md, the thirty-third step).
+            under 1–8 grey levels). 1.5 (the default), the column profile's own stand-out ratio (NeuroSLAM eq.
+            28), stays clear of it. 0 (off): the column profile is the yaw's last resort. On the camera benchmark
+            1.5 before the profile lowered the SLAM ATE's 90th percentile 5.73 → 4.00 m and met every target on
+            32 worlds instead of 30, but two worlds gained closures 2.02–2.16 m along their lane, false by the 2 m
+            bound (docs/generalization.md, the thirty-third step); after the profile and with
+            ``mapping.confirmation_rival_spread`` 1, none (the thirty-fourth step).
         faint_yaw_after_profile: with ``faint_yaw_contrast``, the column profile's yaw stays first where its
-            best shift stands out, and eq. R11's is taken only on the frames nothing else saw. False (the
-            order the benchmark measured first): eq. R11 before the profile, which also mends the profile's
-            false turns (a slanted edge moving up the image) but changes many more frames.
+            best shift stands out, and eq. R11's is taken only on the frames nothing else saw. True (the
+            default). False (the order the benchmark measured first): eq. R11 before the profile, which also
+            mends the profile's false turns (a slanted edge moving up the image) but changes many more frames
+            and gave false closures a lone place 2 m ahead behind a largely blind window (gen3:136, the
+            thirty-fourth step).
         profile_expansion: with ``ground`` and ``transitions``: where the column profile gives the yaw (the
             last resort, where neither the floor nor the whole image's alignment sees it), its shift is found
             together with the image's expansion (eq. R9 of :func:`neuroslam.vision.profiles.profile_turn`), up
@@ -243,8 +246,8 @@ class VisualOdometryConfig:
     blind_hold: float = 10.0
     blind_turn_band: float = 0.05
     yaw_hold: float = 0.0
-    faint_yaw_contrast: float = 0.0
-    faint_yaw_after_profile: bool = False
+    faint_yaw_contrast: float = 1.5
+    faint_yaw_after_profile: bool = True
     profile_expansion: bool = False
     forward_evidence: float = 10.0
     scale_memory: float = 10.0

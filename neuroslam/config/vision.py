@@ -150,12 +150,12 @@ class VisualOdometryConfig:
             1.5 before the profile lowered the SLAM ATE's 90th percentile 5.73 → 4.00 m and met every target on
             32 worlds instead of 30, but two worlds gained closures 2.02–2.16 m along their lane, false by the 2 m
             bound (docs/generalization.md, the thirty-third step); after the profile and with
-            ``mapping.confirmation_rival_spread`` 1, none (the thirty-fourth step).
+            ``experience_map.confirmation_rival_spread`` 1, none (the thirty-fourth step).
         faint_yaw_after_profile: with ``faint_yaw_contrast``, the column profile's yaw stays first where its
             best shift stands out, and eq. R11's is taken only on the frames nothing else saw. True (the
             default). False (the order the benchmark measured first): eq. R11 before the profile, which also
             mends the profile's false turns (a slanted edge moving up the image) but changes many more frames
-            and gave false closures a lone place 2 m ahead behind a largely blind window (gen3:136, the
+            and closed loops falsely onto a lone place 2 m ahead behind a largely blind window (gen3:136, the
             thirty-fourth step).
         profile_expansion: with ``ground`` and ``transitions``: where the column profile gives the yaw (the
             last resort, where neither the floor nor the whole image's alignment sees it), its shift is found

@@ -25,7 +25,7 @@ from .cells.attractor import wrapped_distance
 from .config import ExperienceMapConfig
 from .geometry import compose, inverse, wrap
 from .map_sessions import STATE_ARRAYS, MapSessionsMixin
-from .relaxation import SETTLED, StructureTerms, relax_passes, solve_least_squares
+from .relaxation import SETTLED, StructureTerms, ViewHeadingTerms, relax_passes, solve_least_squares
 
 __all__ = ["ExperienceMap", "MapUpdate"]
 
@@ -80,6 +80,9 @@ class ExperienceMap(MapSessionsMixin):
         self._sessions = GrowingArray(0, np.int64)  # which session made each experience
         self._odometers = GrowingArray(0, np.float64)  # the session's path length when each experience was made, m
         self._structure = GrowingArray(0, np.float64)  # the floor lines' orientation when each was made (eq. M4), rad
+        # the view's yaw relative to its template, and its match difference, when each was made (eq. M6)
+        self._view_yaws = GrowingArray(0, np.float64)
+        self._view_differences = GrowingArray(0, np.float64)
         self._structure_odometer = 0.0  # m, the odometer when eq. M4 last started a solve
         self._blind_since = 0.0  # s since the current experience whose distance nothing observed (eq. M5)
         self._linked: set[tuple[int, int]] = set()
@@ -179,6 +182,17 @@ class ExperienceMap(MapSessionsMixin):
         return self._odometers.view
 
     @property
+    def view_yaws(self) -> np.ndarray:
+        """(N,) rad, the view's yaw relative to its template when each experience was made (0 where the view
+        was learned then; NaN where its match did not pin the yaw, and in a map saved before eq. M6)."""
+        return self._view_yaws.view
+
+    @property
+    def view_differences(self) -> np.ndarray:
+        """(N,) the view's match difference when each experience was made (0 where it was learned then)."""
+        return self._view_differences.view
+
+    @property
     def structure_orientations(self) -> np.ndarray:
         """(N,) the orientation of the floor's straight lines in each experience's frame when it was made (rad,
         modulo 90°: phi of eq. M2 of :mod:`neuroslam.vision.structure`); NaN where none were seen."""
@@ -216,6 +230,8 @@ class ExperienceMap(MapSessionsMixin):
                 rows = np.full(len(state["poses"]), -np.inf)  # a map saved before odometers were kept
             elif name == "structure_orientations" and name not in state and "poses" in state:
                 rows = np.full(len(state["poses"]), np.nan)  # a map saved before eq. M4: no lines seen
+            elif name in ("view_yaws", "view_differences") and name not in state and "poses" in state:
+                rows = np.full(len(state["poses"]), np.nan)  # a map saved before eq. M6: no view's heading
             else:
                 rows = state[name]
             try:
@@ -225,7 +241,8 @@ class ExperienceMap(MapSessionsMixin):
         size, links = grown["_poses"].count, grown["_links"].view
         if any(grown[attribute].count != size for attribute in ("_grid_codes", "_direction_codes", "_templates",
                                                                  "_times", "_degree", "_components", "_sessions",
-                                                                 "_odometers", "_structure")):
+                                                                 "_odometers", "_structure", "_view_yaws",
+                                                                 "_view_differences")):
             raise ValueError("the per-experience arrays differ in length")
         if any(grown[attribute].count != len(links) for attribute in ("_link_poses", "_link_times", "_link_weights",
                                                                    "_link_blind")):
@@ -309,7 +326,8 @@ class ExperienceMap(MapSessionsMixin):
         return candidates[self.components[candidates] == self.component]
 
     def update(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float, *,
-               may_close_loop: bool = True, place: int = -1, structure: float = math.nan) -> MapUpdate:
+               may_close_loop: bool = True, place: int = -1, structure: float = math.nan,
+               view_yaw: float = 0.0, view_difference: float = 0.0) -> MapUpdate:
         """Match the current conjunctive code, create or re-enter an experience, relax after a loop closure.
 
         With ``may_close_loop`` False (an unconfirmed place under the ``confirmed`` rule) a match that
@@ -322,11 +340,15 @@ class ExperienceMap(MapSessionsMixin):
         one). When NeuroSLAM eq. 22 re-enters the current experience
         or one linked to it, that stands (the robot follows the map; no loop closes). ``structure``: the
         orientation of the floor's straight lines in the robot's frame this frame (rad, modulo 90°; NaN where
-        none were seen), kept with an experience made now for eq. M4 (``structure_weight``).
+        none were seen), kept with an experience made now for eq. M4 (``structure_weight``). ``view_yaw`` (rad)
+        and ``view_difference``: the view's yaw relative to its template (NaN where its match does not pin it)
+        and its match difference (0 and 0 for a view learned on this frame), kept with an experience made now
+        for eq. M6 (``view_heading_weight``).
         """
+        view = (view_yaw, view_difference)
         if self.current < 0:
             self._create(template_id, grid_code, direction_code, time, pose=self.relative.copy(),
-                         structure=structure)
+                         structure=structure, view=view)
             self.relative[:] = 0
             self._restart_link()
             return MapUpdate(self.current, True, False)
@@ -347,7 +369,8 @@ class ExperienceMap(MapSessionsMixin):
         on_the_spot = closes_loop and not may_close_loop and self._on_the_spot(best)
         if best_score > self.config.threshold or (closes_loop and not may_close_loop and not on_the_spot):
             previous = self.current
-            self._create(template_id, grid_code, direction_code, time, pose=self.robot_pose(), structure=structure)
+            self._create(template_id, grid_code, direction_code, time, pose=self.robot_pose(), structure=structure,
+                         view=view)
             self._link(previous, self.current, time)
             self.relative[:] = 0
             self._restart_link()
@@ -396,7 +419,7 @@ class ExperienceMap(MapSessionsMixin):
 
     # graph ----------------------------------------------------------------------------------------------
     def _create(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float,
-                pose: np.ndarray, structure: float = math.nan) -> None:
+                pose: np.ndarray, structure: float = math.nan, view: tuple[float, float] = (0.0, 0.0)) -> None:
         self._poses.append(pose)
         self._grid_codes.append(grid_code)
         self._direction_codes.append(direction_code)
@@ -408,14 +431,17 @@ class ExperienceMap(MapSessionsMixin):
         self._sessions.append(self.session)
         self._odometers.append(self.odometer)
         self._structure.append(float(structure))
+        self._view_yaws.append(float(view[0]))
+        self._view_differences.append(float(view[1]))
         self.current = self.size - 1
 
     def _structure_due(self) -> None:
-        """Start a solve every ``structure_interval`` metres driven while eq. M4 is on: between loop closures
-        the odometry's heading drifts away from the lines its new experiences saw, and a solve holds the map
-        to them before the drift reaches the lines' own scatter."""
+        """Start a solve every ``structure_interval`` metres driven while eq. M4 or eq. M6 is on: between loop
+        closures the odometry's heading drifts away from the lines its new experiences saw (and from the
+        headings its familiar views give), and a solve holds the map to them before the drift reaches the
+        lines' own scatter."""
         config = self.config
-        if (config.structure_weight > 0 and config.relaxation == "least-squares"
+        if ((config.structure_weight > 0 or config.view_heading_weight > 0) and config.relaxation == "least-squares"
                 and self.odometer - self._structure_odometer >= config.structure_interval):
             self._structure_odometer = self.odometer
             self._settled = False
@@ -459,10 +485,44 @@ class ExperienceMap(MapSessionsMixin):
             seen = members[np.isfinite(self.structure_orientations[members])]
             structure = StructureTerms(local[seen], self.structure_orientations[seen], self.config.structure_weight,
                                        self.config.structure_tolerance)
+        views = None
+        if self.config.view_heading_weight > 0:
+            views = ViewHeadingTerms(*self._view_headings(members), self.config.view_heading_weight,
+                                     self.config.view_heading_tolerance)
         poses, self._settled = solve_least_squares(
             self._poses.data[members], local[self.links[inside, 0]], local[self.links[inside, 1]],
-            self.link_poses[inside], self._link_weights.view[inside], structure, self.length_weights()[inside])
+            self.link_poses[inside], self._link_weights.view[inside], structure, self.length_weights()[inside],
+            views)
         self._poses.data[members] = poses
+
+    def view_headings(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Eq. M6's observations in the robot's component: (sources, targets: experience ids; facings: rad,
+        each target's yaw relative to its source's as its views measured it); see :meth:`_view_headings`."""
+        members = np.flatnonzero(self.components == self.component)
+        sources, targets, facings = self._view_headings(members)
+        return members[sources], members[targets], facings
+
+    def _view_headings(self, members: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Eq. M6's observations among ``members`` (ascending experience ids): each experience made on a view
+        matched within ``view_heading_difference``, its yaw pinned (finite), faces its view's reference (the
+        oldest member with its template, where the view was learned) turned by the difference of their view
+        yaws, if that reference
+        was made more than ``confirmation_age`` before it or in another session (a view seen again, not the
+        same view a moment later). Returns (sources, targets, facings), indices into ``members``."""
+        config = self.config
+        templates = self.template_ids[members]
+        _, first = np.unique(templates, return_index=True)  # the oldest member of each template
+        reference = first[np.searchsorted(np.unique(templates), templates)]
+        times, sessions = self.creation_times[members], self.sessions[members]
+        differences = self._view_differences.view[members]
+        yaws = self._view_yaws.view[members]
+        observed = np.flatnonzero((differences <= config.view_heading_difference)  # NaN (older maps) compares False
+                                  & np.isfinite(yaws) & np.isfinite(yaws[reference])
+                                  & (reference != np.arange(len(members)))
+                                  & ((times - times[reference] > config.confirmation_age)
+                                     | (sessions != sessions[reference])))
+        sources = reference[observed]
+        return sources, observed, yaws[observed] - yaws[sources]
 
     def _relax_passes(self, passes: int) -> None:
         """NeuroSLAM eq. 25's passes over the whole map (:func:`~neuroslam.relaxation.relax_passes`), unless it

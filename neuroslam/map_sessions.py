@@ -31,6 +31,7 @@ STATE_ARRAYS = {
     "degree": ("_degree", 0, np.int64), "components": ("_components", 0, np.int64),
     "sessions": ("_sessions", 0, np.int64), "odometers": ("_odometers", 0, np.float64),
     "structure_orientations": ("_structure", 0, np.float64),
+    "view_yaws": ("_view_yaws", 0, np.float64), "view_differences": ("_view_differences", 0, np.float64),
 }
 
 

@@ -45,7 +45,7 @@ def _profile_odometry(**regions: Region) -> VisualOdometryConfig:
 def _paper_map(correction: float, relaxation_passes: int) -> ExperienceMapConfig:
     """The paper's experience map: NeuroSLAM eq. 25's passes, loops closed by NeuroSLAM eq. 22's code match alone."""
     return ExperienceMapConfig(correction=correction, relaxation_passes=relaxation_passes, relaxation="passes",
-                               loop_closure="code", structure_weight=0.0,
+                               loop_closure="code", structure_weight=0.0, view_heading_weight=0.0,
                                blind_speed_error=0.0)
 
 

@@ -17,7 +17,8 @@ import scipy.sparse.linalg
 
 from .geometry import quarter_wrap, wrap
 
-__all__ = ["StructureTerms", "relax_passes", "solve_least_squares", "structure_axis"]
+__all__ = ["StructureTerms", "ViewHeadingTerms", "relax_passes", "solve_least_squares", "structure_axis",
+           "view_heading_weights"]
 
 SETTLED = 1e-4  # m or rad: relaxation stops once no experience moves more than this in a pass
 LEAST_SQUARES_ITERATIONS = 3  # Gauss–Newton iterations at most per call; an unfinished solve goes on next call
@@ -47,6 +48,58 @@ class StructureTerms:
 
 
 STRUCTURE_AXIS_ITERATIONS = 5  # reweightings of structure_axis's mean
+#: eq. M6's neighbourhood: a residual is judged against the median of this many observations nearest it (in
+#: the order the experiences were made): about 20 m of path where a path is driven again (an observation every
+#: metre or so at the ``sim`` defaults), and a look-alike's run of up to half as many is outvoted
+VIEW_HEADING_NEIGHBOURS = 20
+
+
+@dataclass(frozen=True)
+class ViewHeadingTerms:
+    """Heading observations from familiar views, for :func:`solve_least_squares` (eq. M6).
+
+    Each observation says that an experience's yaw is its view's reference experience's yaw plus a turn
+    measured by the view cells: ``yaw[targets] = yaw[sources] + facings``.
+
+    Attributes:
+        sources: (m,) indices (into the solve's ``poses``) of the reference experiences (where the views were
+            learned).
+        targets: (m,) indices of the experiences made later on the same views, in the order they were made.
+        facings: (m,) rad, each target's yaw relative to its source's, as the views measured it.
+        weight: the weight of each one's squared error (rad²), relative to a driven link's.
+        tolerance: rad, the Cauchy scale on a residual's departure from its neighbours' median
+            (:func:`view_heading_weights`).
+    """
+
+    sources: np.ndarray
+    targets: np.ndarray
+    facings: np.ndarray
+    weight: float
+    tolerance: float
+
+
+def view_heading_weights(residuals: np.ndarray, weight: float, tolerance: float,
+                         neighbours: int = VIEW_HEADING_NEIGHBOURS) -> np.ndarray:
+    """Eq. M6's weights: ``weight / (1 + (d / tolerance)²)``, d the median departure (rad) of each residual's
+    neighbours from it: the ``neighbours`` observations nearest it in order (itself not counted; at the ends,
+    the first or last ``neighbours``). An observation with no other counts nothing.
+
+    The map's heading error changes slowly along a path, so a true observation's residual, however large
+    before the map is solved, is its neighbours'; a view matched to a look-alike elsewhere, facing another
+    way, departs from them by tens of degrees and counts little, the newest too (its neighbours are the ones
+    before it). Angles: the departures are wrapped differences, so the wrap at ±π does not matter.
+    """
+    residuals = np.asarray(residuals, dtype=float)
+    count = len(residuals)
+    if count < 2:
+        return np.zeros(count)
+    span = min(neighbours + 1, count)  # the neighbours and the observation itself
+    first = np.clip(np.arange(count) - span // 2, 0, count - span)
+    window = first[:, None] + np.arange(span)
+    departures = wrap(residuals[window] - residuals[:, None])
+    departures[window == np.arange(count)[:, None]] = np.nan  # not itself
+    departure = np.nanmedian(departures, axis=1)
+    return weight / (1 + (departure / tolerance) ** 2)
 
 
 def structure_axis(yaws: np.ndarray, orientations: np.ndarray, tolerance: float | None = None) -> float:
@@ -67,7 +120,8 @@ def structure_axis(yaws: np.ndarray, orientations: np.ndarray, tolerance: float 
 
 def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndarray, link_poses: np.ndarray,
                         weights: np.ndarray, structure: StructureTerms | None = None,
-                        length_weights: np.ndarray | None = None) -> tuple[np.ndarray, bool]:
+                        length_weights: np.ndarray | None = None,
+                        views: ViewHeadingTerms | None = None) -> tuple[np.ndarray, bool]:
     """The least-squares map of NeuroSLAM eq. 25's link errors, found by Gauss–Newton on the sparse link graph.
 
     NeuroSLAM eq. 25 moves every experience by a fraction of its links' errors per pass, reducing the sum of
@@ -103,11 +157,22 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
 
     psi solved with the poses (it starts at :func:`structure_axis` of the experiences), u_i the residual at the
     call's start (a Cauchy weighting, fixed within a call and updated at the next). The odometry's heading
-    drifts; the lines' does not, so these residuals hold the map's heading where no loop closes. One call runs at most
-    ``LEAST_SQUARES_ITERATIONS`` iterations, each step halved until the total error does not rise (so a
-    solve never increases it, even where a false closure makes the links disagree grossly); a solve that
-    has not converged (no experience moving more than 1 mm) goes on at the next call, so no frame waits
-    for a long solve.
+    drifts; the lines' does not, so these residuals hold the map's heading where no loop closes.
+
+    With ``views`` (eq. M6, not in the NeuroSLAM paper), each experience made on a familiar view adds a residual
+    on its yaw against the yaw of the experience where the view was learned (its source s), turned by the view
+    cells' relative yaw rho (NeuroSLAM's local view calibration of the head direction, eq. 11, taken into the map):
+
+        r_k = sqrt(w_k) · wrap(yaw_s + rho_k − yaw_k),   w_k = weight / (1 + (d_k / tolerance)²)      (M6)
+
+    d_k the departure of the residual at the call's start from its neighbours' median
+    (:func:`view_heading_weights`). A view seen again says which way the robot faces even where it cannot say
+    where along the path it is, so these residuals hold the heading where the loop closures are refused.
+
+    One call runs at most ``LEAST_SQUARES_ITERATIONS`` iterations, each step halved until the total error does
+    not rise (so a solve never increases it, even where a false closure makes the links disagree grossly); a
+    solve that has not converged (no experience moving more than 1 mm) goes on at the next call, so no frame
+    waits for a long solve.
 
     Args:
         poses: (n, 4) the experiences' poses (m, rad); the first is held fixed.
@@ -118,6 +183,7 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
         structure: eq. M4's observations, or None (then the solve is the links' alone).
         length_weights: (L,) each link's weight along its direction of travel (eq. M5), at most its weight;
             None: the same as ``weights``.
+        views: eq. M6's observations, or None.
 
     Returns (poses (n, 4) after the iterations, settled: whether the solve converged).
     """
@@ -140,6 +206,15 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
         structure_rows = 4 * count + len(across) + np.arange(len(seen))
     else:
         axis = 0.0
+    # eq. M6: rows after eq. M4's
+    with_views = views is not None and len(views.targets) > 0
+    if with_views:
+        view_sources = np.asarray(views.sources, dtype=np.int64)
+        view_targets = np.asarray(views.targets, dtype=np.int64)
+        view_facings = np.asarray(views.facings, dtype=float)
+        start = wrap(poses[view_sources, 3] + view_facings - poses[view_targets, 3])
+        root_views = np.sqrt(view_heading_weights(start, views.weight, views.tolerance))
+        view_rows = 4 * count + len(across) + (len(seen) if with_structure else 0) + np.arange(len(view_targets))
     variables = 4 * n + int(with_structure)
 
     def residual_at(poses: np.ndarray, axis: float) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
@@ -151,6 +226,8 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
         blocks.append((across_cos * apart_y - across_sin * apart_x) * root_across)
         if with_structure:
             blocks.append(quarter_wrap(poses[seen, 3] + orientations - axis) * root_structure)
+        if with_views:
+            blocks.append(wrap(poses[view_sources, 3] + view_facings - poses[view_targets, 3]) * root_views)
         return np.concatenate(blocks), (cos, sin, across_cos, across_sin, apart_x, apart_y)
 
     def jacobian_at(parts: tuple[np.ndarray, ...]) -> scipy.sparse.csc_matrix:
@@ -166,6 +243,10 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
             rows += [structure_rows, structure_rows]
             columns += [4 * seen + 3, np.full(len(seen), 4 * n)]
             values += [root_structure, -root_structure]
+        if with_views:
+            rows += [view_rows, view_rows]
+            columns += [4 * view_sources + 3, 4 * view_targets + 3]
+            values += [root_views, -root_views]
         # the first experience stays where it is: its columns leave the system (a stiff prior on it
         # instead would make the normal equations too ill-conditioned to solve on long chains)
         return scipy.sparse.csc_matrix((np.concatenate(values), (np.concatenate(rows), np.concatenate(columns))),

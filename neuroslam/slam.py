@@ -230,9 +230,12 @@ class NeuroSLAM(SessionsMixin, StateMixin):
                 grid_code, direction_code = self._relocate(place, view.relative_yaw, grid_code, direction_code)
 
         floor_lines = self._floor_lines(image_grey, visual=odometry is None)
+        # eq. M6: the view's yaw relative to its template, where its match pins the column shift (NaN where not)
+        pinned = view.new or view.difference < self.local_view.column_contrasts[view.template_id] / 2
+        view_yaw = view.relative_yaw if pinned else math.nan
         update = themap.update(view.template_id, grid_code, direction_code, float(timestamp),
                                may_close_loop=may_close_loop, place=-1 if merged else place,  # the confirmed place
-                               structure=floor_lines)
+                               structure=floor_lines, view_yaw=view_yaw, view_difference=view.difference)
         if update.loop_closure or (not update.new_experience and self._is_old(update.experience_id, float(timestamp))):
             self._since_closure = 0.0  # on an old experience: localised in the map
         self._frame_experiences.append(update.experience_id)

@@ -98,7 +98,25 @@ class ExperienceMapConfig:
             at one every half metre, which share one error, so each counts a fifth.
         structure_tolerance: rad, the Cauchy scale of eq. M4: an orientation this far from the map's counts
             half (a wall's foot or a ramp's edge read as a floor line). 2°, the lines' per-frame scatter.
-        structure_interval: m driven between the solves eq. M4 starts (a loop closure starts its own). 10 m:
+        view_heading_weight: weight of eq. M6's residual (rad²) per experience made on a familiar view, relative
+            to a driven link's yaw error; 0 leaves it out (the paper's map). Eq. M6 (:mod:`neuroslam.relaxation`)
+            holds the experience's yaw to the yaw the view was learned at plus the view's relative yaw (the
+            view cells' column shift): a view seen again tells the heading even where it cannot tell the place
+            along the path (a blank floor, where no loop closes). Only with ``relaxation = "least-squares"``.
+            0.05: the shift is whole thumbnail columns (5° with the ``sim`` camera), a uniform error of 1.4°
+            (25 mrad) 1σ, against a driven link's 8 mrad, (8 / 25)² ≈ 0.1 for independent errors; consecutive
+            experiences made on one view share its shift, about two each, so each counts a half.
+        view_heading_tolerance: rad, the Cauchy scale of eq. M6, on how far an experience's residual lies from
+            the median of its neighbours' (the :data:`~neuroslam.relaxation.VIEW_HEADING_NEIGHBOURS` made
+            before and after it): the map's heading drifts slowly along a path, so neighbours share their
+            residual, and a view that matched a look-alike elsewhere (facing another way) departs from it.
+            5°: one column of the view's shift.
+        view_heading_difference: the largest view-cell match difference (``local_view.threshold``'s measure)
+            of a view whose heading counts for eq. M6: 0.15, half the view cells' threshold. On two recorded
+            two-lap drives of generated worlds (docs/generalization.md, the thirty-eighth step), matches
+            within it kept 45 % of the views whose heading was right within 10° and 1–5 % of those that were
+            not (look-alikes 20–25 m away, facing another way).
+        structure_interval: m driven between the solves eq. M4 (or eq. M6) starts (a loop closure starts its own). 10 m:
             the wheels' heading walks about 1.7° in that distance (9.1 mrad per root metre, docs/testbed.md),
             within ``structure_tolerance``, so the new experiences' lines are not yet weighed down as misread.
         blind_speed_error: m/s, how wrong a distance nothing observed may be per second (1σ): a link weighs
@@ -142,6 +160,9 @@ class ExperienceMapConfig:
     structure_weight: float = 0.01
     structure_tolerance: float = math.radians(2.0)
     structure_interval: float = 10.0
+    view_heading_weight: float = 0.0
+    view_heading_tolerance: float = math.radians(5.0)
+    view_heading_difference: float = 0.15
     blind_speed_error: float = 0.6
     link_length_error: float = 0.03
 
@@ -181,7 +202,10 @@ class ExperienceMapConfig:
                  number(self.confirmation_rival_spread) and 0 < self.confirmation_rival_spread <= 2,
                  "must be in (0, 2]")
         positive(path, confirmation_tolerance=self.confirmation_tolerance, closure_weight=self.closure_weight,
-                 structure_tolerance=self.structure_tolerance, structure_interval=self.structure_interval)
+                 structure_tolerance=self.structure_tolerance, structure_interval=self.structure_interval,
+                 view_heading_tolerance=self.view_heading_tolerance)
+        non_negative(path, view_heading_weight=self.view_heading_weight,
+                     view_heading_difference=self.view_heading_difference)
         non_negative(path, structure_weight=self.structure_weight, confirmation_age=self.confirmation_age,
                      confirmation_drift=self.confirmation_drift, confirmation_climb_error=self.confirmation_climb_error,
                      confirmation_spacing=self.confirmation_spacing, confirmation_turn=self.confirmation_turn)

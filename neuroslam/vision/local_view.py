@@ -68,6 +68,7 @@ class LocalViewCells:
         self._descriptor_size = rows * (columns // 2 + 1)
         self._templates = np.empty((64, rows, columns), dtype=np.float32)
         self._descriptors = np.empty((64, self._descriptor_size), dtype=np.float32)
+        self._contrasts = np.empty(64, dtype=np.float32)  # each template against itself a column off (derived)
         self.count = 0
         if panoramic:
             half = columns // 2
@@ -94,6 +95,24 @@ class LocalViewCells:
         self._overlap_size = self._overlap.sum(axis=(1, 2))
 
     @property
+    def column_contrasts(self) -> np.ndarray:
+        """(count,) each template's mean absolute difference from itself shifted by one column (the lesser of
+        the two shifts; patch-normalised values, as ``threshold``): how much one column of turn changes it. A
+        view matched with a difference under half of it has its column shift pinned (by the triangle inequality,
+        the view one column off lies farther from the template than the view itself); a blank template (0)
+        pins no shift."""
+        return self._contrasts[: self.count]
+
+    def _column_contrast(self, templates: np.ndarray) -> np.ndarray:
+        """:attr:`column_contrasts` of (K, rows, columns) templates."""
+        if len(templates) == 0:
+            return np.zeros(0, dtype=np.float32)
+        if self.panoramic:
+            return np.minimum(*(np.abs(templates - np.roll(templates, shift, axis=2)).mean(axis=(1, 2))
+                                for shift in (1, -1))).astype(np.float32)
+        return np.abs(templates[:, :, 1:] - templates[:, :, :-1]).mean(axis=(1, 2)).astype(np.float32)
+
+    @property
     def templates(self) -> np.ndarray:
         """The stored templates, shape (count, rows, columns), patch-normalised (a view, not a copy)."""
         return self._templates[: self.count]
@@ -117,6 +136,8 @@ class LocalViewCells:
         self._descriptors = np.empty((capacity, self._descriptor_size), dtype=np.float32)
         self._templates[:count] = templates
         self._descriptors[:count] = descriptors
+        self._contrasts = np.empty(capacity, dtype=np.float32)
+        self._contrasts[:count] = self._column_contrast(templates)
         self.count = count
 
     def extend(self, other: LocalViewCells) -> int:
@@ -186,7 +207,9 @@ class LocalViewCells:
         if self.count == len(self._templates):
             self._templates = np.concatenate([self._templates, np.empty_like(self._templates)])
             self._descriptors = np.concatenate([self._descriptors, np.empty_like(self._descriptors)])
+            self._contrasts = np.concatenate([self._contrasts, np.empty_like(self._contrasts)])
         self._templates[self.count] = thumbnail
         self._descriptors[self.count] = self._descriptor(thumbnail)
+        self._contrasts[self.count] = self._column_contrast(thumbnail[None])[0]
         self.count += 1
         return self.count - 1

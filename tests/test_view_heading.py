@@ -125,8 +125,9 @@ def test_an_experience_keeps_its_views_yaw_and_observes_where_the_view_was_learn
     assert np.isnan(loaded.view_yaws).all() and loaded.view_headings()[0].size == 0
 
 
-def test_a_blank_template_pins_no_column_shift():
-    cells = LocalViewCells()
+@pytest.mark.parametrize("panoramic", [False, True])
+def test_a_blank_template_pins_no_column_shift(panoramic):
+    cells = LocalViewCells(panoramic=panoramic)
     rng = np.random.default_rng(0)
     textured = cells.thumbnail(rng.random((120, 160)).astype(np.float32))
     blank = cells.thumbnail(np.full((120, 160), 0.5, dtype=np.float32))
@@ -135,7 +136,7 @@ def test_a_blank_template_pins_no_column_shift():
     contrast = cells.column_contrasts
     assert contrast[0] > 0.5 and contrast[1] == 0.0
     # derived, not saved: a loaded set has the same
-    again = LocalViewCells()
+    again = LocalViewCells(panoramic=panoramic)
     again.load_state_dict(cells.state_dict())
     assert np.array_equal(again.column_contrasts, contrast)
 

@@ -506,9 +506,9 @@ class ExperienceMap(MapSessionsMixin):
         """Eq. M6's observations among ``members`` (ascending experience ids): each experience made on a view
         matched within ``view_heading_difference``, its yaw pinned (finite), faces its view's reference (the
         oldest member with its template, where the view was learned) turned by the difference of their view
-        yaws, if that reference
-        was made more than ``confirmation_age`` before it or in another session (a view seen again, not the
-        same view a moment later). Returns (sources, targets, facings), indices into ``members``."""
+        yaws, if that reference was made more than ``confirmation_age`` before it or in another session (a
+        view seen again, not the same view a moment later). Returns (sources, targets, facings), indices into
+        ``members``."""
         config = self.config
         templates = self.template_ids[members]
         _, first = np.unique(templates, return_index=True)  # the oldest member of each template

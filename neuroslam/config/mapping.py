@@ -108,7 +108,7 @@ class ExperienceMapConfig:
             experiences made on one view share its shift, about two each, so each counts a half.
         view_heading_tolerance: rad, the Cauchy scale of eq. M6, on how far an experience's residual lies from
             the median of its neighbours' (the :data:`~neuroslam.relaxation.VIEW_HEADING_NEIGHBOURS` made
-            before and after it): the map's heading drifts slowly along a path, so neighbours share their
+            nearest it): the map's heading drifts slowly along a path, so neighbours share their
             residual, and a view that matched a look-alike elsewhere (facing another way) departs from it.
             5°: one column of the view's shift.
         view_heading_difference: the largest view-cell match difference (``local_view.threshold``'s measure)

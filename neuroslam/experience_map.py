@@ -511,8 +511,9 @@ class ExperienceMap(MapSessionsMixin):
         ``members``."""
         config = self.config
         templates = self.template_ids[members]
-        _, first = np.unique(templates, return_index=True)  # the oldest member of each template
-        reference = first[np.searchsorted(np.unique(templates), templates)]
+        # the oldest member of each template
+        _, first, inverse = np.unique(templates, return_index=True, return_inverse=True)
+        reference = first[inverse]
         times, sessions = self.creation_times[members], self.sessions[members]
         differences = self._view_differences.view[members]
         yaws = self._view_yaws.view[members]

@@ -18,6 +18,16 @@ image in the scale the floor last gave it; SLAM ATE 9.68 m before the odometry s
 ``gen1:127``, with sparsely marked floors and ramp (single frames read 3–13° of turn while driving straight
 until a floor solution the whole image contradicts was refused; 7.92 m before). On the benchmark they meet
 every target with some margin (0.81 m and 0.91 m, ratios 0.26 and 0.36).
+
+Two more from the benchmark's current range (generator version 3, ``benchmarks/generalization.py``), chosen
+by what the generator drew: the shortest of its worlds (seeds 100–139) with a blank ground floor and the
+shortest with an open top under the sky, among those not largely blind on the benchmark's run (blind in
+distance and yaw on less than a quarter of their frames, its ``BLIND_LIMIT``; the largely blind ones do not
+meet the targets yet, docs/generalization.md, so they cannot be asserted here). ``gen3:134`` (551 m): a blank
+ground floor and a large-tiled upper one, lane markings; ``gen3:114`` (497 m): a large-tiled ground floor
+(thin lines 2.5–4 m apart) and a low-contrast open top with a second deck over part of it, the land and the
+horizon in view, lane markings. On the benchmark and here: SLAM ATE 0.95 m (ratio 0.23) and 0.69 m (ratio
+0.35), 44–67 s a drive.
 """
 
 import json
@@ -27,7 +37,8 @@ import pytest
 from neuroslam.lab.cli import main
 
 DEVELOPMENT_WORLDS = ["carpark", "urban", "building", "gen1:1", "gen1:2", "gen1:3"]
-HARD_WORLDS = ["gen1:108", "gen1:127"]  # a blank floor; sparse marks
+HARD_WORLDS = ["gen1:108", "gen1:127",  # a blank floor; sparse marks (generator version 1)
+               "gen3:134", "gen3:114"]  # a blank floor; an open deck over sparse lines (version 3)
 WORLDS = DEVELOPMENT_WORLDS + HARD_WORLDS
 
 

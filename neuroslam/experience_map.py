@@ -24,7 +24,7 @@ from .arrays import GrowingArray
 from .cells.attractor import wrapped_distance
 from .config import ExperienceMapConfig
 from .geometry import compose, inverse, wrap
-from .map_sessions import STATE_ARRAYS, MapSessionsMixin
+from .map_sessions import STATE_ARRAYS, MapSessionsMixin, neighbour_pairs
 from .relaxation import SETTLED, StructureTerms, ViewHeadingTerms, relax_passes, solve_least_squares
 
 __all__ = ["ExperienceMap", "MapUpdate"]
@@ -91,6 +91,7 @@ class ExperienceMap(MapSessionsMixin):
         self.current = -1
         self.relative = np.zeros(4)  # odometric pose of the robot in the current experience's frame
         self.loop_closures = 0
+        self.along_path_closures = 0  # eq. M8's links made (not saved with the map)
         self.component = 0  # the map the robot is in: new experiences join it, only its experiences match
         self.session = 0  # the current session (see begin_session)
         self.odometer = 0.0  # m, the path length driven in this session (|distance| summed by integrate)
@@ -254,7 +255,7 @@ class ExperienceMap(MapSessionsMixin):
             raise ValueError(f"current experience {current} does not fit a map of {size}")
         for attribute, value in grown.items():
             setattr(self, attribute, value)
-        self._linked = {(int(a), int(b)) for a, b in links}
+        self._linked = neighbour_pairs(links, self.link_blind_times)
         self._by_template = {}
         for experience, template in enumerate(self.template_ids):
             self._by_template.setdefault(int(template), []).append(experience)
@@ -327,7 +328,8 @@ class ExperienceMap(MapSessionsMixin):
 
     def update(self, template_id: int, grid_code: np.ndarray, direction_code: np.ndarray, time: float, *,
                may_close_loop: bool = True, place: int = -1, structure: float = math.nan,
-               view_yaw: float = 0.0, view_difference: float = 0.0) -> MapUpdate:
+               view_yaw: float = 0.0, view_difference: float = 0.0, along_path: int = -1,
+               along_path_yaw: float = 0.0) -> MapUpdate:
         """Match the current conjunctive code, create or re-enter an experience, relax after a loop closure.
 
         With ``may_close_loop`` False (an unconfirmed place under the ``confirmed`` rule) a match that
@@ -343,7 +345,10 @@ class ExperienceMap(MapSessionsMixin):
         none were seen), kept with an experience made now for eq. M4 (``structure_weight``). ``view_yaw`` (rad)
         and ``view_difference``: the view's yaw relative to its template (NaN where its match does not pin it)
         and its match difference (0 and 0 for a view learned on this frame), kept with an experience made now
-        for eq. M6 (``view_heading_weight``).
+        for eq. M6 (``view_heading_weight``). ``along_path`` (an experience id, or -1): a place the views
+        confirmed across the path but not along it (eq. M8, ``along_path_closures``), the robot facing its yaw
+        plus ``along_path_yaw`` (rad); an experience made now is linked to it by a link free along the place's
+        heading (:meth:`_link_along_path`).
         """
         view = (view_yaw, view_difference)
         if self.current < 0:
@@ -374,6 +379,8 @@ class ExperienceMap(MapSessionsMixin):
             self._link(previous, self.current, time)
             self.relative[:] = 0
             self._restart_link()
+            if along_path >= 0:
+                self._link_along_path(along_path, along_path_yaw, time)
             self._structure_due()
             self._relax(self.config.idle_passes)
             return MapUpdate(self.current, True, False)
@@ -400,6 +407,23 @@ class ExperienceMap(MapSessionsMixin):
         self._restart_link()
         self._relax(self.config.relaxation_passes if closes_loop else self.config.idle_passes)
         return MapUpdate(best, False, closes_loop)
+
+    def _link_along_path(self, place: int, relative_yaw: float, time: float) -> None:
+        """Eq. M8: link ``place`` → the current experience (just made) as a loop closure that says where the robot
+        is across the path and which way it faces, not where along it. The link has no length and lies along
+        the place's heading; its length weighs nothing (eq. M5's length weight, with no distance observed:
+        infinitely blind), so the least-squares map is held across the place's heading (eq. M5's row across),
+        in height and in yaw (the robot faces the place's yaw plus the view's ``relative_yaw``), with the
+        weight of a loop closure. A solve starts where the link's error reaches the loop closures' trigger."""
+        self._link(place, self.current, time, weight=self.config.closure_weight,
+                   relative=np.array([0.0, 0.0, 0.0, relative_yaw]), blind=math.inf, heading=0.0)
+        self.along_path_closures += 1
+        yaw = self.poses[place, 3]
+        apart = self.poses[self.current, :3] - self.poses[place, :3]
+        error = (abs(-math.sin(yaw) * apart[0] + math.cos(yaw) * apart[1]), abs(apart[2]),
+                 abs(float(wrap(yaw + relative_yaw - self.poses[self.current, 3]))))
+        if self.config.relaxation == "least-squares" and max(error) >= LEAST_SQUARES_TRIGGER:
+            self._settled = False
 
     def _restart_link(self) -> None:
         """The odometry starts again from the current experience: no blind seconds counted for eq. M5 yet."""
@@ -447,14 +471,15 @@ class ExperienceMap(MapSessionsMixin):
             self._settled = False
 
     def _link(self, source: int, target: int, time: float, *, weight: float = 1.0,
-              relative: np.ndarray | None = None, blind: float | None = None) -> None:
+              relative: np.ndarray | None = None, blind: float | None = None, heading: float | None = None) -> None:
         """Link ``source`` → ``target`` with the odometry accumulated since ``source`` (NeuroSLAM eq. 23), or with
         ``relative`` (``target``'s pose in ``source``'s frame) and ``blind`` seconds; ``weight`` scales its
         squared errors in the least-squares map."""
         dx, dy, dz, dyaw = self.relative if relative is None else relative
         distance = math.hypot(dx, dy)
         # a link read as no travel (the distance blind) points the way the robot faced halfway along it (eq. M5)
-        heading = math.atan2(dy, dx) if distance > 0 else float(wrap(dyaw)) / 2
+        if heading is None:
+            heading = math.atan2(dy, dx) if distance > 0 else float(wrap(dyaw)) / 2
         self._links.append((source, target))
         self._link_poses.append((distance, heading, float(wrap(dyaw)), dz))
         # seconds on the session's clock; a link from an experience of an earlier session records 0
@@ -463,7 +488,8 @@ class ExperienceMap(MapSessionsMixin):
         self._link_blind.append(self._blind_since if blind is None else blind)
         self._degree.data[source] += 1
         self._degree.data[target] += 1
-        self._linked.add((source, target))
+        if math.isfinite(self._link_blind.view[-1]):  # eq. M8's links make no neighbours (:func:`neighbour_pairs`)
+            self._linked.add((source, target))
 
     def _relax(self, passes: int) -> None:
         """Relax the map after a change: NeuroSLAM eq. 25's passes, or its least-squares map solved directly."""

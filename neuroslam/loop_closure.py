@@ -39,6 +39,7 @@ def confirm_place(
     odometers: np.ndarray | None = None,
     sessions: np.ndarray | None = None,
     rival_spread: float | None = None,
+    along_path: bool = False,
 ) -> int:
     """The old experience the last frames confirm the robot is at, or -1.
 
@@ -106,6 +107,12 @@ def confirm_place(
             each experience's session (all one session without it).
         rival_spread: m, how far from the winner a confirmed hypothesis makes it ambiguous (default
             ``2 * tolerance``).
+        along_path: the test of eq. M8 instead (a place known across the path, not along it): a view seen along
+            many metres is evidence too, and the confirmed hypotheses may spread along the winner's heading as
+            far as they like, but no farther than ``rival_spread`` across it (nor in height); the rule of places
+            one pass laid apart does not apply (they are the stretch the place may lie anywhere along).
+            The winner's place then says where the robot is across the path and which way it faces, not where
+            along it (:meth:`~neuroslam.experience_map.ExperienceMap.update`'s ``along_path``).
     """
     window_poses = np.asarray(window_poses, dtype=float)
     if len(window_poses) < matches:
@@ -146,7 +153,7 @@ def confirm_place(
         else:
             reach = gaps.min(axis=0) <= radius  # where this frame could be
             extent = np.ptp(map_poses[places[reach], :2], axis=0) if reach.any() else np.zeros(2)
-            if math.hypot(*extent) > 2 * tolerance:
+            if math.hypot(*extent) > 2 * tolerance and not along_path:
                 continue  # a view seen along many metres (or at several places) within reach says little
             evidence = True
         if len(alternatives):
@@ -164,7 +171,12 @@ def confirm_place(
     best = int(np.argmin(np.where(confirmed & within, misfit / np.maximum(support, 1), np.inf)))
     rivals, winner = hypotheses[confirmed], hypotheses[best]
     distinct = 2 * tolerance if rival_spread is None else rival_spread
-    spread = np.linalg.norm(map_poses[rivals, :3] - map_poses[winner, :3], axis=1).max()
+    apart = map_poses[rivals, :3] - map_poses[winner, :3]
+    if along_path:  # eq. M8: only the spread across the winner's heading, and in height, makes it ambiguous
+        yaw = map_poses[winner, 3]
+        across = np.abs(-math.sin(yaw) * apart[:, 0] + math.cos(yaw) * apart[:, 1])
+        return int(winner) if max(across.max(), np.abs(apart[:, 2]).max()) <= distinct else -1
+    spread = np.linalg.norm(apart, axis=1).max()
     if spread > distinct:
         return -1
     if odometers is not None:  # places one pass laid apart are distinct, wherever the map has put them since

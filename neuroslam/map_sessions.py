@@ -9,6 +9,7 @@ re-expressed so that no relative pose changes.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -33,6 +34,14 @@ STATE_ARRAYS = {
     "structure_orientations": ("_structure", 0, np.float64),
     "view_yaws": ("_view_yaws", 0, np.float64), "view_differences": ("_view_differences", 0, np.float64),
 }
+
+
+def neighbour_pairs(links: np.ndarray, blind_times: np.ndarray) -> set[tuple[int, int]]:
+    """The (source, target) pairs of the links that make two experiences neighbours on the robot's path: every
+    link but eq. M8's (a place known across the path, not along it; infinitely blind in distance), which
+    says nothing of how far apart its experiences lie, so that the robot may not step from one to the other
+    without a loop closure."""
+    return {(int(a), int(b)) for (a, b), blind in zip(links, blind_times, strict=True) if math.isfinite(blind)}
 
 
 class MapSessionsMixin:
@@ -126,7 +135,7 @@ class MapSessionsMixin:
             setattr(self, attribute, GrowingArray.of(rows, columns, dtype))
         kept_links = self.links
         self._degree = GrowingArray.of(np.bincount(kept_links.ravel(), minlength=self.size), 0, np.int64)
-        self._linked = {(int(a), int(b)) for a, b in kept_links}
+        self._linked = neighbour_pairs(kept_links, self.link_blind_times)
         self._by_template = {}
         for experience, template in enumerate(self.template_ids):
             self._by_template.setdefault(int(template), []).append(experience)
@@ -163,8 +172,7 @@ class MapSessionsMixin:
             rows = {"template_ids": rows + template_offset, "links": rows + experience_offset,
                     "components": rows + component_offset, "sessions": rows + session_offset}.get(name, rows)
             getattr(self, attribute).extend(rows)
-        for source, target in other.links + experience_offset:
-            self._linked.add((int(source), int(target)))
+        self._linked |= neighbour_pairs(other.links + experience_offset, other.link_blind_times)
         for experience in range(experience_offset, self.size):
             self._by_template.setdefault(int(self.template_ids[experience]), []).append(experience)
         self.session = max(self.session, int(self.sessions.max()) if self.size else 0)

@@ -223,11 +223,14 @@ class NeuroSLAM(SessionsMixin, StateMixin):
             if place >= 0:
                 grid_code, direction_code = self._merge(place, view.relative_yaw, grid_code, direction_code)
                 merged = True
+        along_path = -1
         if self.config.experience_map.loop_closure == "confirmed" and not merged:
             place = -1 if refused else self._confirmed_place(view.relative_yaw, float(timestamp))
             may_close_loop = place >= 0
             if may_close_loop:
                 grid_code, direction_code = self._relocate(place, view.relative_yaw, grid_code, direction_code)
+            elif not refused and self.config.experience_map.confirmation_along_path:  # eq. M8
+                along_path = self._confirmed_place(view.relative_yaw, float(timestamp), along_path=True)
 
         floor_lines = self._floor_lines(image_grey, visual=odometry is None)
         # eq. M6: the view's yaw relative to its template, where its match pins the column shift (NaN where not)
@@ -235,7 +238,8 @@ class NeuroSLAM(SessionsMixin, StateMixin):
         view_yaw = view.relative_yaw if pinned else math.nan
         update = themap.update(view.template_id, grid_code, direction_code, float(timestamp),
                                may_close_loop=may_close_loop, place=-1 if merged else place,  # the confirmed place
-                               structure=floor_lines, view_yaw=view_yaw, view_difference=view.difference)
+                               structure=floor_lines, view_yaw=view_yaw, view_difference=view.difference,
+                               along_path=along_path, along_path_yaw=view.relative_yaw)
         if update.loop_closure or (not update.new_experience and self._is_old(update.experience_id, float(timestamp))):
             self._since_closure = 0.0  # on an old experience: localised in the map
         self._frame_experiences.append(update.experience_id)
@@ -291,21 +295,21 @@ class NeuroSLAM(SessionsMixin, StateMixin):
         return moved >= config.confirmation_spacing or (
             0 < config.confirmation_turn <= turned and moved <= SPOT_RADIUS * turned)
 
-    def _confirmed_place(self, relative_yaw: float, time: float) -> int:
+    def _confirmed_place(self, relative_yaw: float, time: float, *, along_path: bool = False) -> int:
         """The old experience the last frames confirm (:func:`~neuroslam.loop_closure.confirm_place`), or -1.
 
         Old: made more than ``confirmation_age`` ago. The search radius grows with the distance driven
         since the robot was last on an old experience (``confirmation_drift`` per metre, and
-        ``confirmation_climb_error`` per metre for heights).
+        ``confirmation_climb_error`` per metre for heights). With ``along_path``, eq. M8's test instead.
         """
         themap = self.experience_map
         eligible = self._old(time) & (themap.components == themap.component)
         return self._confirm(np.array([entry[0] for entry in self._recent]),
                              np.array([entry[1] for entry in self._recent]), [entry[2] for entry in self._recent],
-                             relative_yaw, eligible, themap.robot_pose(), self._since_closure)
+                             relative_yaw, eligible, themap.robot_pose(), self._since_closure, along_path=along_path)
 
     def _confirm(self, poses: np.ndarray, templates: np.ndarray, alternatives: list, relative_yaw: float,
-                 eligible: np.ndarray, robot: np.ndarray, since: float) -> int:
+                 eligible: np.ndarray, robot: np.ndarray, since: float, *, along_path: bool = False) -> int:
         """:func:`~neuroslam.loop_closure.confirm_place` over a window (odometry poses, views and their other
         matching templates, the newest last) with this configuration's tolerances, the search radius grown by
         ``since`` metres driven without a loop closure; the confirmed experience, or -1."""
@@ -319,7 +323,7 @@ class NeuroSLAM(SessionsMixin, StateMixin):
             climb_error=config.confirmation_climb_error,
             odometers=self.experience_map.odometers if config.confirmation_laid_apart else None,
             sessions=self.experience_map.sessions,
-            rival_spread=config.confirmation_rival_spread * config.confirmation_tolerance)
+            rival_spread=config.confirmation_rival_spread * config.confirmation_tolerance, along_path=along_path)
 
     def _is_old(self, experience: int, time: float) -> bool:
         """One experience's entry of :meth:`_old` (without computing the others)."""

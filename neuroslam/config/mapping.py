@@ -86,7 +86,9 @@ class ExperienceMapConfig:
             two laps). Such a window still says where the robot is across the path and which way it faces; the
             experience made next is linked to the winning place by a link that is free along the place's
             heading (eq. M5's row across, with the weight of a loop closure), and the robot's codes are not
-            moved. Not counted as a loop closure. False: off.
+            moved. Only where the current view's match pins its column shift (as for eq. M6: the link holds the
+            robot's yaw to the place's plus the view's): on gen3:137 11 of 557 such links were more than 10°
+            off without it, none with it. Not counted as a loop closure. False: off.
         confirmation_tolerance: m, how far a frame's matched experience may lie from where the
             hypothesis puts it. confirmation_age: s, experiences younger than this are not a revisit.
         confirmation_drift: m per m driven since the last loop closure: a hypothesis must lie within

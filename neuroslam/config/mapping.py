@@ -88,7 +88,10 @@ class ExperienceMapConfig:
             heading (eq. M5's row across, with the weight of a loop closure), and the robot's codes are not
             moved. Only where the current view's match pins its column shift (as for eq. M6: the link holds the
             robot's yaw to the place's plus the view's): on gen3:137 11 of 557 such links were more than 10°
-            off without it, none with it. Not counted as a loop closure. False: off.
+            off without it, none with it. Not counted as a loop closure. False: off; on the benchmark's 13
+            largely blind worlds it made gen3:132 a catastrophe (7 links joined look-alike corridors up to 35 m
+            apart, which the rule it relaxes keeps out) and gen3:136 worse (docs/generalization.md, the
+            thirty-ninth step).
         confirmation_tolerance: m, how far a frame's matched experience may lie from where the
             hypothesis puts it. confirmation_age: s, experiences younger than this are not a revisit.
         confirmation_drift: m per m driven since the last loop closure: a hypothesis must lie within

@@ -83,7 +83,9 @@ def world_rows(results: list[dict]) -> list[dict]:
             "odometry": odometry,
             "ratio": slam / odometry if odometry else math.inf,
             "closures": int(float(result["loop_closures"])),
-            "false_closures": int(float(result["false_loop_closures"])),
+            # eq. M8's links (an option) are judged as loop closures are
+            "false_closures": int(float(result["false_loop_closures"]))
+            + int(float(result.get("false_along_path_closures") or 0)),
             "level_accuracy": _number(result.get("level_accuracy")),
             "experiences": int(float(result["experiences"])),
             "blind": {key.split(".", 1)[1]: float(value) for key, value in result.items()

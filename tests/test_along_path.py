@@ -9,6 +9,7 @@ import pytest
 
 from neuroslam.config import ExperienceMapConfig
 from neuroslam.errors import InvalidParameterError
+from neuroslam.evaluation import false_along_path_mask
 from neuroslam.experience_map import ExperienceMap
 from neuroslam.loop_closure import confirm_place
 from neuroslam.relaxation import solve_least_squares
@@ -137,3 +138,18 @@ def test_the_experience_map_links_a_new_experience_to_the_place_and_counts_no_lo
 def test_the_setting_is_checked():
     with pytest.raises(InvalidParameterError, match="confirmation_along_path"):
         ExperienceMapConfig(confirmation_along_path=1).validate()
+
+
+def test_a_link_is_false_where_its_experiences_lie_apart_across_the_path_or_on_another_floor():
+    """Judged as a loop closure is (2 m, levels), but only across the place's true heading: the two experiences
+    of a link may lie any distance apart along the path."""
+    places = np.array([[0.0, 0.0, 0.0, 0.0]] * 5 + [[0.0, 0.0, 0.0, math.pi / 2]])
+    positions = np.array([[15.0, 0.5, 0.0],    # 15 m along, 0.5 m across: right
+                          [-8.0, -1.9, 0.0],   # behind, 1.9 m across: right
+                          [3.0, 2.5, 0.0],     # 2.5 m across: false
+                          [0.0, 0.0, 3.0],     # the floor above: false
+                          [0.0, 1.5, 1.5],     # 1.5 m across and 1.5 m up (a ramp's middle): 2.1 m, false
+                          [2.5, 9.0, 0.0]])    # facing north: 9 m along, 2.5 m across: false
+    levels = np.array([0, 0, 0, 1, -1, 0])
+    false = false_along_path_mask(places, positions, np.zeros(6, dtype=int), levels, floors=np.array([0.0, 3.0]))
+    assert false.tolist() == [False, False, True, True, True, True]

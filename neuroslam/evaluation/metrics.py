@@ -143,6 +143,24 @@ def false_loop_closures(positions_now: np.ndarray, positions_then: np.ndarray, l
         floor_tolerance=floor_tolerance)))
 
 
+def false_along_path_mask(place_poses: np.ndarray, positions: np.ndarray, place_levels: np.ndarray,
+                          levels: np.ndarray, *, distance: float = 2.0, floors: np.ndarray | None = None,
+                          floor_tolerance: float = FLOOR_TOLERANCE) -> np.ndarray:
+    """Which of eq. M8's links (a place known across the path, not along it) are false: the linked experience's
+    true position, moved along the place's true heading to lie beside the place, is more than ``distance``
+    metres from it in 3-D (across the path and in height), or on another level (:func:`false_loop_closure_mask`'s
+    rules, ramps included). ``place_poses``: (K, 4) the places' true poses (m, rad); ``positions``: (K, 3) the
+    linked experiences' true positions (m); levels: their true levels."""
+    places = np.asarray(place_poses, dtype=float).reshape(-1, 4)
+    positions = np.asarray(positions, dtype=float).reshape(-1, 3)
+    heading = np.column_stack([np.cos(places[:, 3]), np.sin(places[:, 3])])
+    along = np.sum((positions[:, :2] - places[:, :2]) * heading, axis=1)
+    beside = positions.copy()
+    beside[:, :2] -= along[:, None] * heading
+    return false_loop_closure_mask(beside, places[:, :3], levels, place_levels, distance=distance, floors=floors,
+                                   floor_tolerance=floor_tolerance)
+
+
 def run_metrics(
     *,
     truth: np.ndarray,

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..evaluation import observation_shares, run_metrics
+from ..evaluation import false_along_path_mask, observation_shares, run_metrics
 from ..slam import MAP_FILE, NeuroSLAM
 from ..tum import write_tum, yaw_quaternion
 from .frames import Frame, FrameStream, SelfMotionSource
@@ -195,6 +195,20 @@ class Run:
             arguments["merge_frames"], arguments["merge_truth"], arguments["merge_levels"] = columns(self.merges)
         return arguments
 
+    def _along_path_metrics(self) -> dict[str, int]:
+        """``along_path_closures``: eq. M8's links in the robot's map (a place known across the path, not along
+        it; not loop closures), and ``false_along_path_closures``: those whose two experiences were made more
+        than 2 m apart across the place's true heading or in height, or on different levels
+        (:func:`~neuroslam.evaluation.false_along_path_mask`)."""
+        themap = self.slam.experience_map
+        mine = themap.components[themap.links[:, 0]] == themap.component if len(themap.links) else np.zeros(0, bool)
+        along = np.flatnonzero(np.isinf(themap.link_blind_times) & mine)
+        places, place_levels = self.book.of(themap.links[along, 0])
+        linked, levels = self.book.of(themap.links[along, 1])
+        floors = None if self.stream.levels is None else np.array(self.stream.levels, dtype=float)
+        false = false_along_path_mask(places, linked[:, :3], place_levels, levels, floors=floors)
+        return {"along_path_closures": int(len(along)), "false_along_path_closures": int(np.count_nonzero(false))}
+
     def metrics(self) -> dict[str, Any]:
         """``metrics.json``: the source, the path driven, the map's size, the accuracy against the truth
         where known (:func:`~neuroslam.evaluation.run_metrics`), what the camera observed
@@ -219,6 +233,8 @@ class Run:
                 truth=truth, true_levels=true_levels, levels=None if levels is None else np.array(levels),
                 estimate=self.estimate, odometry=self.self_motion, online_estimate=self.online,
                 **self._event_arguments()))
+            if self.slam.config.experience_map.confirmation_along_path:  # eq. M8's links, judged as closures are
+                metrics.update(self._along_path_metrics())
         else:
             metrics["loop_closures"] = themap.loop_closures
             if self.book.from_maps:

@@ -91,7 +91,6 @@ class ExperienceMap(MapSessionsMixin):
         self.current = -1
         self.relative = np.zeros(4)  # odometric pose of the robot in the current experience's frame
         self.loop_closures = 0
-        self.along_path_closures = 0  # eq. M8's links made (not saved with the map)
         self.component = 0  # the map the robot is in: new experiences join it, only its experiences match
         self.session = 0  # the current session (see begin_session)
         self.odometer = 0.0  # m, the path length driven in this session (|distance| summed by integrate)
@@ -160,6 +159,12 @@ class ExperienceMap(MapSessionsMixin):
         none; 0 for a link made before this was kept). Such a link's length weighs less than its direction in
         the least-squares map (eq. M5 of :mod:`neuroslam.relaxation`, :meth:`length_weights`)."""
         return self._link_blind.view
+
+    @property
+    def along_path_closures(self) -> int:
+        """Eq. M8's links in the map (a place known across the path, not along it: the links infinitely blind in
+        distance, :meth:`_link_along_path`); not loop closures."""
+        return int(np.count_nonzero(np.isinf(self.link_blind_times)))
 
     @property
     def blind_since(self) -> float:
@@ -417,7 +422,6 @@ class ExperienceMap(MapSessionsMixin):
         weight of a loop closure. A solve starts where the link's error reaches the loop closures' trigger."""
         self._link(place, self.current, time, weight=self.config.closure_weight,
                    relative=np.array([0.0, 0.0, 0.0, relative_yaw]), blind=math.inf, heading=0.0)
-        self.along_path_closures += 1
         yaw = self.poses[place, 3]
         apart = self.poses[self.current, :3] - self.poses[place, :3]
         error = (abs(-math.sin(yaw) * apart[0] + math.cos(yaw) * apart[1]), abs(apart[2]),

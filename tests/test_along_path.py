@@ -130,6 +130,7 @@ def test_the_experience_map_links_a_new_experience_to_the_place_and_counts_no_lo
     loaded = ExperienceMap(themap.config)
     loaded.load_state_dict(themap.state_dict())
     assert not loaded.linked(2, update.experience_id) and loaded.linked(4, update.experience_id)
+    assert loaded.along_path_closures == 1 and loaded.loop_closures == 0
     # the solve moved the new experience toward the corridor's line and its heading toward the place's
     assert abs(themap.poses[update.experience_id, 1]) < math.sin(0.3) * 1.0
     assert abs(themap.poses[update.experience_id, 3] - 0.05) < 0.3

@@ -23,6 +23,8 @@ def test_presets_exist_and_differ():
     ({"grid_cells": {"size": [0, 36, 36]}}, "grid_cells.size", "from 4 to 512"),
     ({"local_view": {"threshold": -1}}, "local_view.threshold", "positive"),
     ({"local_view": {"threshold": "low"}}, "local_view.threshold", "positive"),
+    ({"local_view": {"noise_floor": -1.0}}, "local_view.noise_floor", ">= 0"),
+    ({"local_view": {"noise_floor": float("nan")}}, "local_view.noise_floor", ">= 0"),
     ({"odometry": {"height_region": {"top": 0.9, "bottom": 0.5}}}, "odometry.height_region.bottom", "greater"),
     ({"experience_map": {"correction": 2}}, "experience_map.correction", "(0, 1]"),
     ({"horizontal_fov": -1}, "horizontal_fov", "radians"),

@@ -35,6 +35,41 @@ def test_shifted_copy_matches_with_its_shift_and_unrelated_view_is_new():
     assert cells.count == 2
 
 
+def test_a_blank_view_under_sensor_noise_is_one_place():
+    """Eq. V1: a blank wall under a camera's noise (3.5 grey levels, fresh every frame) is one template, not one
+    a frame (as with eq. 26 alone: noise at unit contrast differs by about 1.13 between frames; with the floor,
+    by 1.13 / sqrt(1 + 4²) = 0.27 before the best shift, under the threshold)."""
+    rng = np.random.default_rng(4)
+    wall = np.full((120, 160), 0.45, np.float32)
+    frames = [wall + 3.5 / 255 * rng.standard_normal(wall.shape).astype(np.float32) for _ in range(40)]
+    cells = LocalViewCells(LocalViewConfig(), horizontal_fov=math.radians(80))
+    assert cells.observe(cells.thumbnail(frames[0])).new
+    assert not any(cells.observe(cells.thumbnail(frame)).new for frame in frames[1:])
+    assert cells.count == 1
+    bare = LocalViewCells(LocalViewConfig(noise_floor=0.0), horizontal_fov=math.radians(80))
+    for frame in frames:
+        bare.observe(bare.thumbnail(frame))
+    assert bare.count > 30
+
+
+def test_textured_views_under_sensor_noise_keep_their_places_and_shifts():
+    """Under the same noise a textured scene's shifted view still matches with its shift, another scene's view is
+    still new, and a clean image's thumbnail is eq. 26's bit for bit."""
+    rng = np.random.default_rng(5)
+    world, other = scene(1), scene(2)
+
+    def noisy(image):
+        return image + 3.5 / 255 * rng.standard_normal(image.shape).astype(np.float32)
+
+    cells = LocalViewCells(LocalViewConfig(), horizontal_fov=math.radians(80))
+    assert cells.observe(cells.thumbnail(noisy(view(world, 100)))).new
+    again = cells.observe(cells.thumbnail(noisy(view(world, 80))))
+    assert not again.new and again.template_id == 0 and again.column_shift == 2
+    assert cells.observe(cells.thumbnail(noisy(view(other, 100)))).new
+    bare = LocalViewCells(LocalViewConfig(noise_floor=0.0), horizontal_fov=math.radians(80))
+    np.testing.assert_array_equal(cells.thumbnail(view(world, 100)), bare.thumbnail(view(world, 100)))
+
+
 def test_panoramic_views_match_over_the_whole_circle():
     cells = LocalViewCells(LocalViewConfig(thumbnail=(12, 48), max_column_shift=23), panoramic=True)
     strip = scene(3, (120, 480))

@@ -6,13 +6,14 @@ image's expansion in the floor's last metric scale for the distance, and nothing
 seen. Tolerances are the issue's: turns within 10 %, distance within 10 % over 20 m on sparse tiles.
 """
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 from scenes import Scene, Texture, arc_path
 
-from neuroslam import NeuroSLAM
+from neuroslam import Config, NeuroSLAM
 from neuroslam.config import VisualOdometryConfig
 from neuroslam.vision.odometry import VisualOdometry
 
@@ -140,6 +141,26 @@ def test_a_uniform_image_claims_no_motion_and_grows_no_map():
         estimate = slam.step(grey, 0.1 * k)
     assert slam.local_view.count == 1 and slam.experience_map.size == 1
     assert np.allclose(estimate.pose, 0.0)
+
+
+def test_a_uniform_image_under_sensor_noise_grows_no_map():
+    """No growth without travel under a camera's noise: a blank wall under 3.5 grey levels, 30 s at rest, is one
+    template and one experience, and the robot stays where it is (eq. V1 for the views, eq. G8 for the floor).
+    With NeuroSLAM eq. 26 alone (``local_view.noise_floor = 0``) the noise at unit contrast is a new template on
+    most frames."""
+    rng = np.random.default_rng(12)
+    images = [_noisy(np.full((120, 160), 0.5), 3.5, rng) for _ in range(300)]
+    config = Config()
+    config = dataclasses.replace(config, odometry=dataclasses.replace(config.odometry, floor_shared_information=True))
+    slam = NeuroSLAM(config)
+    for k, image in enumerate(images):
+        estimate = slam.step(image, 0.1 * k)
+    assert slam.local_view.count == 1 and slam.experience_map.size == 1
+    assert np.abs(estimate.pose).max() < 1e-3
+    bare = NeuroSLAM(dataclasses.replace(config, local_view=dataclasses.replace(config.local_view, noise_floor=0.0)))
+    for k, image in enumerate(images[:100]):
+        bare.step(image, 0.1 * k)
+    assert bare.local_view.count > 50
 
 
 def test_large_tiles_with_sparse_lines_read_the_distance_within_ten_percent_over_twenty_metres():

@@ -340,6 +340,12 @@ class LocalViewConfig:
         max_row_shift, max_column_shift: shifts tried when matching, thumbnail pixels.
         threshold: largest mean absolute difference (of patch-normalised values) that still matches.
         candidates: templates pre-selected cheaply before the exact shifted comparison.
+        noise_floor: eq. V1 of :mod:`neuroslam.vision.local_view`: a patch's contrast is counted with this many
+            times the sensor noise left in a thumbnail pixel (the image's noise, eq. V2, estimated on every
+            frame), so a blank patch under noise is not raised to unit contrast; 0: NeuroSLAM eq. 26 alone.
+            4, the least whole number with which two views of one blank scene under noise differ by less than
+            ``threshold`` (1.13 / sqrt(1 + c²) < 0.3); more would flatten faint texture a camera can still tell
+            from its noise. A clean render's noise is below an 8-bit image's quantisation, and eq. 26 is unchanged.
     """
 
     region: Region = Region(0.0, 1.0, 0.0, 1.0)
@@ -349,6 +355,7 @@ class LocalViewConfig:
     max_column_shift: int = 4
     threshold: float = 0.3
     candidates: int = 24
+    noise_floor: float = 4.0
 
     def __post_init__(self) -> None:
         self.validate()
@@ -365,5 +372,6 @@ class LocalViewConfig:
             require(f"{path}.{name}", value, isinstance(value, int) and 0 <= value < max(limit, 1),
                      f"must be an integer from 0 to {max(limit, 1) - 1} pixels")
         positive(path, threshold=self.threshold)
+        non_negative(path, noise_floor=self.noise_floor)
         require(f"{path}.candidates", self.candidates, isinstance(self.candidates, int) and self.candidates >= 1,
                  "must be a positive integer")

@@ -2,6 +2,9 @@
 
 from .local_view import LocalViewCells, ViewMatch
 from .odometry import SelfMotion, VisualOdometry
-from .preprocessing import crop, grey, patch_normalise, resize
+from .preprocessing import crop, grey, noise_deviation, patch_normalise, resize
 
-__all__ = ["LocalViewCells", "SelfMotion", "ViewMatch", "VisualOdometry", "crop", "grey", "patch_normalise", "resize"]
+__all__ = [
+    "LocalViewCells", "SelfMotion", "ViewMatch", "VisualOdometry", "crop", "grey", "noise_deviation", "patch_normalise",
+    "resize",
+]

@@ -11,6 +11,33 @@ All templates live in one contiguous array. To keep the cost nearly flat as the 
 shift-tolerant pre-selection picks ``candidates`` templates first: each thumbnail row's column spectrum
 magnitude (unchanged by a circular column shift) compared by one matrix-vector product; the exact
 shifted comparison then runs on those candidates only.
+
+Eq. 26 divides each thumbnail pixel's difference from its patch's mean by the patch's standard deviation, so a
+patch of any contrast comes out at unit contrast. A blank patch under a camera's noise is then that noise at
+unit contrast: a view of a blank wall differs from the same view a frame later by 2 / sqrt(pi) = 1.13, nearly
+four times ``threshold``, and every such view becomes a new template (the generalization benchmark's camera
+noise, 3.5 grey levels a channel at mid-grey, doubled the templates of the 13 largely blind worlds and made
+seven times as many on one, docs/generalization.md's fortieth step). The patch's deviation is therefore
+counted with the noise left in a thumbnail pixel:
+
+    v(x) = (t(x) - mean_P(x)) / sqrt(sd_P(x)^2 + (c sigma_n / sqrt(A))^2)                     (V1)
+
+(t: the thumbnail; mean_P and sd_P over the patch around x; A: the image pixels a thumbnail pixel averages,
+at least 1; c: ``noise_floor``), with the image's noise sigma_n estimated on every frame from the image itself,
+robustly to its edges (Immerkaer 1996's mask N, which passes no plane, and a median):
+
+    sigma_n = median |I * N| / (0.6745 x 6),   N = [[1, -2, 1], [-2, 4, -2], [1, -2, 1]]        (V2)
+
+(:func:`~.preprocessing.noise_deviation`). A patch of noise alone then has the contrast 1 / sqrt(1 + c^2), and
+two views of one blank scene differ by 1.13 / sqrt(1 + c^2) before the best shift is taken. c is the least
+whole number that brings that under the default ``threshold`` (0.3): c > 3.6, so 4 (0.27; the best of the
+comparison's shifts: 0.23, at most 0.26 over 200 frames under 2, 3.5 and 8 grey levels, so a blank view is one
+template). A larger c would flatten more of the faint texture a camera can still tell from its noise (a patch
+of a few times the noise's contrast comes out at k / sqrt(k^2 + c^2)), and a place seen again under more noise
+(a dimmer light: more shot noise) would differ more from its template. A texture whose contrast is many times
+the noise keeps eq. 26's unit contrast. A sigma_n below an 8-bit image's quantisation (1 / sqrt(12) of a grey
+level) counts as none: a clean render has sigma_n = 0 on most frames and at most 0.26 levels (over six recorded
+drives of the generalization benchmark), and eq. 26 is then unchanged, bit for bit.
 """
 
 from __future__ import annotations
@@ -21,9 +48,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..config import LocalViewConfig
-from .preprocessing import crop, patch_normalise, resize
+from .preprocessing import crop, noise_deviation, patch_normalise, resize
 
 __all__ = ["LocalViewCells", "ViewMatch"]
+
+# eq. V2's noise below an 8-bit image's quantisation (a uniform error of one grey level of 255: deviation
+# 1 / sqrt(12) of a level) is taken as none: a clean render's edges and fine texture give up to 0.22 levels
+_QUANTISATION = 1.0 / (255.0 * math.sqrt(12.0))
 
 
 @dataclass(frozen=True)
@@ -151,10 +182,17 @@ class LocalViewCells:
         return first
 
     def thumbnail(self, grey_image: np.ndarray) -> np.ndarray:
-        """The patch-normalised thumbnail of a grey image (crop, area resize, NeuroSLAM eq. 26)."""
+        """The patch-normalised thumbnail of a grey image (values in [0, 1]: crop, area resize, NeuroSLAM eq. 26
+        with the sensor noise's floor of eqs. V1–V2 where ``noise_floor`` is above 0)."""
         region = crop(grey_image, self.config.region)
         small = resize(region, self.config.thumbnail)
-        return patch_normalise(small, self.config.patch_size, wrap_columns=self.panoramic)
+        noise = 0.0
+        if self.config.noise_floor > 0:  # eq. V1: the noise left in a thumbnail pixel, the mean of `area` pixels
+            deviation = noise_deviation(grey_image)
+            if deviation > _QUANTISATION:
+                area = max(region.shape[0] * region.shape[1] / (small.shape[0] * small.shape[1]), 1.0)
+                noise = self.config.noise_floor * deviation / math.sqrt(area)
+        return patch_normalise(small, self.config.patch_size, wrap_columns=self.panoramic, noise=noise)
 
     def _descriptor(self, thumbnail: np.ndarray) -> np.ndarray:
         spectrum = np.abs(np.fft.rfft(thumbnail, axis=1)).ravel()

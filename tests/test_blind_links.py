@@ -154,7 +154,9 @@ def test_neuroslam_counts_the_seconds_its_self_motion_did_not_see_the_distance(o
     rng = np.random.default_rng(0)
     slam = NeuroSLAM("sim")
     for frame in range(12):
-        image = rng.integers(0, 256, (120, 160), dtype=np.uint8)
+        # a new scene every frame: random 8 × 8 pixel blocks (per-pixel random values would be read as the
+        # sensor's noise, eq. V2, and every such frame as one blank view)
+        image = np.kron(rng.integers(0, 256, (15, 20)), np.ones((8, 8))).astype(np.uint8)
         slam.step(image, 0.1 * frame, SelfMotion(1.0, 0.0, 0.0, observed))
     experience_map = slam.experience_map
     assert len(experience_map.links) >= 8

@@ -42,7 +42,7 @@ from .state import MAP_FILE, StateMixin
 from .vision.ground_motion import blurred_with_gradients
 from .vision.local_view import LocalViewCells
 from .vision.odometry import SelfMotion, VisualOdometry
-from .vision.preprocessing import grey, reduce_to_width
+from .vision.preprocessing import grey, noise_deviation, reduce_to_width
 from .vision.structure import StructureHeading
 
 __all__ = ["MAP_FILE", "Estimate", "NeuroSLAM"]
@@ -165,10 +165,14 @@ class NeuroSLAM(SessionsMixin, StateMixin):
         array = self._check(image, timestamp, odometry)
         image_grey = grey(array)
         dt = 0.0 if self._last_time is None else float(timestamp) - self._last_time
-        motion = odometry if odometry is not None else self.visual_odometry.step(image_grey, dt)
+        config = self.config
+        # eq. V2, once for the views' noise floor (eq. V1) and the floor's information (eq. G8's "noisy")
+        noise = (noise_deviation(image_grey) if config.local_view.noise_floor > 0 or (
+            odometry is None and config.odometry.floor_shared_information == "noisy") else None)
+        motion = odometry if odometry is not None else self.visual_odometry.step(image_grey, dt, noise=noise)
         distance, yaw_change, climb = motion.forward_speed * dt, motion.yaw_rate * dt, motion.climb_rate * dt
 
-        view = self.local_view.observe(self.local_view.thumbnail(image_grey))
+        view = self.local_view.observe(self.local_view.thumbnail(image_grey, noise=noise))
         if self._known_start:
             self._known_start = False
             self._start_in_map(view)

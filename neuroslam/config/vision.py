@@ -99,7 +99,12 @@ class VisualOdometryConfig:
             part of eq. G3's information both images share. Sensor noise, which the next image does not repeat,
             adds to eq. G3's Σ w J_d² (a uniform image under 1 grey level of noise passes ``floor_min_information``,
             and the floor then reads motion at rest) but averages out of eq. G8's; a texture both images show
-            gives both alike. False (the default): eq. G3's.
+            gives both alike. False: eq. G3's. True: eq. G8's on every frame. ``"noisy"`` (the default): eq. G8's
+            on the frames whose image has sensor noise (eq. V2 of :mod:`neuroslam.vision.local_view`, the image's
+            noise estimated from the image, above half a grey level), eq. G3's elsewhere: on a clean
+            render eq. G8 has only the interpolation's residual to judge by, and there it moved the benchmark's
+            largely blind worlds by metres both ways (docs/generalization.md, thirty-seventh step), while under a
+            camera's noise it is what keeps a blank floor blind (the fortieth step).
         floor_aperture: rad; for ``ground``, that information counts only the floor (and ceiling) pixels whose
             image gradient lies more than this from perpendicular to the image motion of a forward step (eq. G6
             of :mod:`neuroslam.vision.ground_motion`): an edge along the path (a wall's foot, a ramp's side)
@@ -240,7 +245,7 @@ class VisualOdometryConfig:
     floor_half_width: float = 0.0
     slope_half_width: float = 0.0
     floor_min_information: float = 0.3
-    floor_shared_information: bool = False
+    floor_shared_information: bool | str = "noisy"
     floor_aperture: float = 0.1745  # 10 degrees (the value the benchmark measured)
     min_image_information: float = 0.2
     blind_hold: float = 10.0
@@ -308,7 +313,8 @@ class VisualOdometryConfig:
         require(f"{path}.faint_yaw_after_profile", self.faint_yaw_after_profile,
                 isinstance(self.faint_yaw_after_profile, bool), "must be true or false")
         require(f"{path}.floor_shared_information", self.floor_shared_information,
-                isinstance(self.floor_shared_information, bool), "must be true or false")
+                isinstance(self.floor_shared_information, bool) or self.floor_shared_information == "noisy",
+                'must be true, false or "noisy"')
         require(f"{path}.profile_expansion", self.profile_expansion, isinstance(self.profile_expansion, bool),
                 "must be true or false")
         require(f"{path}.manhattan_strength", self.manhattan_strength,
@@ -345,7 +351,8 @@ class LocalViewConfig:
             frame), so a blank patch under noise is not raised to unit contrast; 0: NeuroSLAM eq. 26 alone.
             4, the least whole number with which two views of one blank scene under noise differ by less than
             ``threshold`` (1.13 / sqrt(1 + c²) < 0.3); more would flatten faint texture a camera can still tell
-            from its noise. A clean render's noise is below an 8-bit image's quantisation, and eq. 26 is unchanged.
+            from its noise. Up to half a grey level (all rounding to 8 bits can give) the noise counts as none:
+            the testbed's clean renders read at most 0.28, and eq. 26 is unchanged there.
     """
 
     region: Region = Region(0.0, 1.0, 0.0, 1.0)

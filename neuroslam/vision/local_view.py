@@ -35,9 +35,12 @@ comparison's shifts: 0.23, at most 0.26 over 200 frames under 2, 3.5 and 8 grey 
 template). A larger c would flatten more of the faint texture a camera can still tell from its noise (a patch
 of a few times the noise's contrast comes out at k / sqrt(k^2 + c^2)), and a place seen again under more noise
 (a dimmer light: more shot noise) would differ more from its template. A texture whose contrast is many times
-the noise keeps eq. 26's unit contrast. A sigma_n below an 8-bit image's quantisation (1 / sqrt(12) of a grey
-level) counts as none: a clean render has sigma_n = 0 on most frames and at most 0.26 levels (over six recorded
-drives of the generalization benchmark), and eq. 26 is then unchanged, bit for bit.
+the noise keeps eq. 26's unit contrast. A sigma_n up to half a grey level (of 255) counts as none: rounding to 8
+bits errs by at most half a level, so nothing beyond it comes from rounding alone. A clean render of the testbed
+has sigma_n = 0 on most frames and at most 0.28 levels (all 154,385 frames of twelve recorded drives of the
+generalization benchmark), and eq. 26 is then unchanged, bit for bit. A texture fine
+on most of the image's pixels (a value-noise texture at a few pixels a cell) is read as 1–3 grey levels of noise;
+its patches' contrast lies far above a floor of that size, and it keeps its unit contrast.
 """
 
 from __future__ import annotations
@@ -48,13 +51,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..config import LocalViewConfig
-from .preprocessing import crop, noise_deviation, patch_normalise, resize
+from .preprocessing import ROUNDING_LIMIT, crop, noise_deviation, patch_normalise, resize
 
 __all__ = ["LocalViewCells", "ViewMatch"]
-
-# eq. V2's noise below an 8-bit image's quantisation (a uniform error of one grey level of 255: deviation
-# 1 / sqrt(12) of a level) is taken as none: a clean render's edges and fine texture give up to 0.22 levels
-_QUANTISATION = 1.0 / (255.0 * math.sqrt(12.0))
 
 
 @dataclass(frozen=True)
@@ -181,18 +180,19 @@ class LocalViewCells:
         self.load_state_dict({key: np.concatenate([state[key], extra[key]]) for key in state})
         return first
 
-    def thumbnail(self, grey_image: np.ndarray) -> np.ndarray:
+    def thumbnail(self, grey_image: np.ndarray, *, noise: float | None = None) -> np.ndarray:
         """The patch-normalised thumbnail of a grey image (values in [0, 1]: crop, area resize, NeuroSLAM eq. 26
-        with the sensor noise's floor of eqs. V1–V2 where ``noise_floor`` is above 0)."""
+        with the sensor noise's floor of eqs. V1–V2 where ``noise_floor`` is above 0). ``noise``: the image's
+        noise deviation (eq. V2) where the caller has it already; otherwise it is estimated."""
         region = crop(grey_image, self.config.region)
         small = resize(region, self.config.thumbnail)
-        noise = 0.0
+        floor = 0.0
         if self.config.noise_floor > 0:  # eq. V1: the noise left in a thumbnail pixel, the mean of `area` pixels
-            deviation = noise_deviation(grey_image)
-            if deviation > _QUANTISATION:
+            deviation = noise_deviation(grey_image) if noise is None else noise
+            if deviation > ROUNDING_LIMIT:  # no more than rounding to 8 bits could give: none
                 area = max(region.shape[0] * region.shape[1] / (small.shape[0] * small.shape[1]), 1.0)
-                noise = self.config.noise_floor * deviation / math.sqrt(area)
-        return patch_normalise(small, self.config.patch_size, wrap_columns=self.panoramic, noise=noise)
+                floor = self.config.noise_floor * deviation / math.sqrt(area)
+        return patch_normalise(small, self.config.patch_size, wrap_columns=self.panoramic, noise=floor)
 
     def _descriptor(self, thumbnail: np.ndarray) -> np.ndarray:
         spectrum = np.abs(np.fft.rfft(thumbnail, axis=1)).ravel()

@@ -49,7 +49,7 @@ from .cues import CueSelectionMixin
 from .ground_motion import GroundMotion, blurred_with_gradients
 from .motion import BLIND, Observed, SelfMotion
 from .pitch import LevelTransitions, RotationAlignment
-from .preprocessing import crop, reduce_to_width, resize
+from .preprocessing import ROUNDING_LIMIT, crop, noise_deviation, reduce_to_width, resize
 from .profiles import best_shift, profile_turn, vertical_shift
 from .structure import StructureHeading
 
@@ -122,7 +122,7 @@ class VisualOdometry(CueSelectionMixin):
                                         half_width=config.floor_half_width, aperture=config.floor_aperture,
                                         min_information=config.floor_min_information,
                                         slope_half_width=config.slope_half_width,
-                                        shared_information=config.floor_shared_information)
+                                        shared_information=config.floor_shared_information is True)
         self._alignment = self.transitions = None
         self._speed = 0.0  # m/s, the last speed measured off a transition (held across one)
         # where nothing observes the distance, this speed is held (odometry.blind_hold)
@@ -155,7 +155,7 @@ class VisualOdometry(CueSelectionMixin):
             self._ceiling = GroundMotion(horizontal_fov=horizontal_fov, camera_height=1.0,
                                          camera_forward=config.camera_forward, surface="ceiling",
                                          min_information=config.floor_min_information, aperture=config.floor_aperture,
-                                         shared_information=config.floor_shared_information)
+                                         shared_information=config.floor_shared_information is True)
         self._finest: np.ndarray | None = None  # the last image blurred, with gradients (eqs. R1–R2)
         # eqs. M1–M3: the heading against the floor's and the ceiling's straight lines
         self.lines = (StructureHeading(horizontal_fov=horizontal_fov, strength=config.manhattan_strength,
@@ -314,15 +314,19 @@ class VisualOdometry(CueSelectionMixin):
             "height": resize(height, (max(4, height.shape[0] // 2), max(8, width // 2))),
         }
 
-    def step(self, grey_image: np.ndarray, dt: float) -> SelfMotion:
-        """Self-motion since the previous image (zero for the first), for images ``dt`` seconds apart."""
-        motion = self._step(grey_image, dt)
+    def step(self, grey_image: np.ndarray, dt: float, *, noise: float | None = None) -> SelfMotion:
+        """Self-motion since the previous image (zero for the first), for images ``dt`` seconds apart.
+
+        ``noise``: the image's noise deviation (eq. V2, :func:`~.preprocessing.noise_deviation`, in the image's
+        units) where the caller has it already; otherwise it is estimated where ``floor_shared_information`` is
+        ``"noisy"``."""
+        motion = self._step(grey_image, dt, noise)
         if self.lines is None or dt <= 0 or self._finest is None:
             return motion
         yaw_change = self.lines.correct(self._finest, motion.yaw_rate * dt, dt)  # eq. M3
         return SelfMotion(motion.forward_speed, yaw_change / dt, motion.climb_rate, motion.observed)
 
-    def _step(self, grey_image: np.ndarray, dt: float) -> SelfMotion:
+    def _step(self, grey_image: np.ndarray, dt: float, noise: float | None = None) -> SelfMotion:
         """:meth:`step` before eq. M3."""
         profiles = self._profiles(grey_image)
         previous, self._previous = self._previous, profiles
@@ -332,6 +336,12 @@ class VisualOdometry(CueSelectionMixin):
         working = reduce_to_width(grey_image, self.config.working_width)  # the direct alignments' image
         if self._ground is not None and self.transitions is not None:  # eq. G7: on a slope, the near floor's lane
             self._ground.on_slope = abs(self.transitions.pitch) >= self.config.transition_min
+        if self._ground is not None and self.config.floor_shared_information == "noisy":
+            # eq. G8 on the frames whose image has sensor noise (eq. V2 above half a grey level)
+            noisy = (noise_deviation(grey_image) if noise is None else noise) > ROUNDING_LIMIT
+            self._ground.shared_information = noisy
+            if self._ceiling is not None:
+                self._ceiling.shared_information = noisy
         ground = None if self._ground is None else self._ground.step(working)
         finest_before = self._finest
         if self._alignment is not None:

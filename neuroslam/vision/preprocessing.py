@@ -11,7 +11,9 @@ from scipy import ndimage
 
 from ..config import Region
 
-__all__ = ["crop", "grey", "noise_deviation", "patch_normalise", "reduce_to_width", "resize"]
+__all__ = [
+    "ROUNDING_LIMIT", "crop", "grey", "noise_deviation", "patch_normalise", "reduce_to_width", "resize",
+]
 
 _LUMA = np.array([0.299, 0.587, 0.114], dtype=np.float32)
 # Immerkaer's (1996) mask: the difference of two Laplacians, blind to any plane and to most of a smooth image's
@@ -19,6 +21,10 @@ _LUMA = np.array([0.299, 0.587, 0.114], dtype=np.float32)
 # the sum of its squared weights, 36)
 _NOISE_MASK = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], dtype=np.float32)
 _NORMAL_MEDIAN = 0.6745  # the median of |x| over a standard normal distribution
+# eq. V2's noise up to half a grey level of 255 is taken as none: rounding to 8 bits errs by at most half a level,
+# so no deviation above it can come from rounding alone (uniform rounding errors have 1 / sqrt(12) = 0.29 of a
+# level, and a clean render's edges and smooth shading, rounded, read up to 0.28 levels on the testbed)
+ROUNDING_LIMIT = 0.5 / 255.0
 
 
 def grey(image: np.ndarray) -> np.ndarray:

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
+from neuroslam import InvalidInputError
 from neuroslam.config import LocalViewConfig
-from neuroslam.vision import LocalViewCells
+from neuroslam.vision import LocalViewCells, VisualOdometry
 
 
 def scene(seed, shape=(120, 400)):
@@ -68,6 +69,21 @@ def test_textured_views_under_sensor_noise_keep_their_places_and_shifts():
     assert cells.observe(cells.thumbnail(noisy(view(other, 100)))).new
     bare = LocalViewCells(LocalViewConfig(noise_floor=0.0), horizontal_fov=math.radians(80))
     np.testing.assert_array_equal(cells.thumbnail(view(world, 100)), bare.thumbnail(view(world, 100)))
+
+
+@pytest.mark.parametrize("noise", [-0.01, math.nan, math.inf, "0.01", True])
+def test_a_bad_noise_deviation_is_refused_naming_it(noise):
+    """The image's noise handed to the views or the odometry (eq. V2) must be a finite number >= 0."""
+    image = view(scene(1), 100)
+    with pytest.raises(InvalidInputError, match="noise="):
+        LocalViewCells().thumbnail(image, noise=noise)
+    odometry = VisualOdometry()
+    odometry.step(image, 0.0)
+    before = odometry.state_dict()
+    with pytest.raises(InvalidInputError, match="noise="):
+        odometry.step(image, 0.1, noise=noise)
+    after = odometry.state_dict()
+    assert before.keys() == after.keys() and all(np.array_equal(before[key], after[key]) for key in before)
 
 
 def test_panoramic_views_match_over_the_whole_circle():

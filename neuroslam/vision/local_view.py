@@ -38,9 +38,9 @@ of a few times the noise's contrast comes out at k / sqrt(k^2 + c^2)), and a pla
 the noise keeps eq. 26's unit contrast. A sigma_n up to half a grey level (of 255) counts as none: rounding to 8
 bits errs by at most half a level, so nothing beyond it comes from rounding alone. A clean render of the testbed
 has sigma_n = 0 on most frames and at most 0.28 levels (all 154,385 frames of twelve recorded drives of the
-generalization benchmark), and eq. 26 is then unchanged, bit for bit. A texture fine
-on most of the image's pixels (a value-noise texture at a few pixels a cell) is read as 1–3 grey levels of noise;
-its patches' contrast lies far above a floor of that size, and it keeps its unit contrast.
+generalization benchmark), and eq. 26 is then unchanged, bit for bit. A texture fine on most of the image's
+pixels (a value-noise texture at a few pixels a cell) is read as 1–3 grey levels of noise; its patches' contrast
+lies far above a floor of that size, and it keeps its unit contrast.
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..config import LocalViewConfig
-from .preprocessing import ROUNDING_LIMIT, crop, noise_deviation, patch_normalise, resize
+from .preprocessing import ROUNDING_LIMIT, check_noise, crop, noise_deviation, patch_normalise, resize
 
 __all__ = ["LocalViewCells", "ViewMatch"]
 
@@ -183,7 +183,10 @@ class LocalViewCells:
     def thumbnail(self, grey_image: np.ndarray, *, noise: float | None = None) -> np.ndarray:
         """The patch-normalised thumbnail of a grey image (values in [0, 1]: crop, area resize, NeuroSLAM eq. 26
         with the sensor noise's floor of eqs. V1–V2 where ``noise_floor`` is above 0). ``noise``: the image's
-        noise deviation (eq. V2) where the caller has it already; otherwise it is estimated."""
+        noise deviation (eq. V2) where the caller has it already; otherwise it is estimated.
+
+        Raises :class:`~neuroslam.errors.InvalidInputError` for a ``noise`` that is not a finite number >= 0."""
+        noise = check_noise(noise)
         region = crop(grey_image, self.config.region)
         small = resize(region, self.config.thumbnail)
         floor = 0.0

@@ -49,7 +49,7 @@ from .cues import CueSelectionMixin
 from .ground_motion import GroundMotion, blurred_with_gradients
 from .motion import BLIND, Observed, SelfMotion
 from .pitch import LevelTransitions, RotationAlignment
-from .preprocessing import ROUNDING_LIMIT, crop, noise_deviation, reduce_to_width, resize
+from .preprocessing import ROUNDING_LIMIT, check_noise, crop, noise_deviation, reduce_to_width, resize
 from .profiles import best_shift, profile_turn, vertical_shift
 from .structure import StructureHeading
 
@@ -319,8 +319,11 @@ class VisualOdometry(CueSelectionMixin):
 
         ``noise``: the image's noise deviation (eq. V2, :func:`~.preprocessing.noise_deviation`, in the image's
         units) where the caller has it already; otherwise it is estimated where ``floor_shared_information`` is
-        ``"noisy"``."""
-        motion = self._step(grey_image, dt, noise)
+        ``"noisy"``.
+
+        Raises :class:`~neuroslam.errors.InvalidInputError` for a ``noise`` that is not a finite number >= 0
+        (nothing is changed)."""
+        motion = self._step(grey_image, dt, check_noise(noise))
         if self.lines is None or dt <= 0 or self._finest is None:
             return motion
         yaw_change = self.lines.correct(self._finest, motion.yaw_rate * dt, dt)  # eq. M3

@@ -3,6 +3,7 @@ estimate of the sensor's noise (eq. V2 of :mod:`.local_view`)."""
 
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 
 import cv2
@@ -10,6 +11,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..config import Region
+from ..errors import InvalidInputError
 
 __all__ = [
     "ROUNDING_LIMIT", "crop", "grey", "noise_deviation", "patch_normalise", "reduce_to_width", "resize",
@@ -83,14 +85,25 @@ def noise_deviation(grey_image: np.ndarray) -> float:
     :mod:`.local_view`): the median absolute response to Immerkaer's mask at every other inner pixel of every
     other row (a quarter of them: 4,700 at 160 x 120, the median within about 2 %; 0.05 ms), over the median
     0.6745 × 6 that pure noise of deviation 1 gives. The median, not Immerkaer's mean, so edges and
-    texture on fewer than half the pixels do not count as noise (a clean render: 0 on most frames, at most 0.2
-    grey levels of 255 on the testbed's textured worlds; the benchmark camera's noise, 3.5 levels a channel at
-    mid-grey: 2.1–2.4). An image under 3 × 3 pixels: 0."""
+    texture on fewer than half the pixels do not count as noise (a clean render: 0 on most frames, at most 0.28
+    grey levels of 255 on the testbed's worlds; the benchmark camera's noise, 3.5 levels a channel at mid-grey:
+    2.1–2.4). An image under 3 × 3 pixels: 0."""
     image = np.asarray(grey_image, dtype=np.float32)
     if image.ndim != 2 or min(image.shape) < 3:
         return 0.0
     response = cv2.filter2D(image, cv2.CV_32F, _NOISE_MASK)[1:-1:2, 1:-1:2]
     return float(np.median(np.abs(response))) / (_NORMAL_MEDIAN * 6.0)
+
+
+def check_noise(noise: float | None) -> float | None:
+    """``noise`` (an image's noise deviation, eq. V2) as a float, or None; raises
+    :class:`~neuroslam.errors.InvalidInputError` naming ``noise`` for anything but a finite number >= 0."""
+    if noise is None:
+        return None
+    if (not isinstance(noise, (int, float, np.floating)) or isinstance(noise, bool) or not math.isfinite(noise)
+            or noise < 0):
+        raise InvalidInputError("noise", repr(noise), "must be a finite number >= 0 (the image's units)")
+    return float(noise)
 
 
 def patch_normalise(image: np.ndarray, patch_size: int, *, wrap_columns: bool = False,

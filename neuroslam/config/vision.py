@@ -178,6 +178,14 @@ class VisualOdometryConfig:
             distance). 10: at rest and turning in place on 2° a frame over a blank floor between textured walls
             (tests/scenes.py, with and without sensor noise of 2 grey levels) |z| stays within 6.5; driving
             there at 1 m/s it is 53–90.
+        held_direction: with ``transitions`` and ``forward_evidence``: where nothing observes the distance
+            and the whole image shows the robot moving (its expansion's t-statistic beyond
+            ``forward_evidence``) against the direction of the speed held, the speed held becomes the median
+            of the observed speeds that went the image's way (eq. R12 of
+            :meth:`neuroslam.vision.cues.CueSelectionMixin._image_direction_speed`), where at least ten did.
+            A held speed is one floor reading carried on, and one wrong minimum at a ramp's top (the floor not
+            one plane) made it backward: gen3:133's odometry drove 21 m backwards over a blank deck while
+            the image showed it driving forward. False: the speed held stands, only the hold's clock runs.
         scale_memory: seconds over which the metric scale of the upper image's expansion (walls, ceiling) is
             learnt from the floor's distance, to be carried where the floor shows none (a time constant).
         floor_yaw_tolerance: with ``ground`` and ``transitions``, the largest disagreement between the floor's
@@ -255,6 +263,7 @@ class VisualOdometryConfig:
     faint_yaw_after_profile: bool = True
     profile_expansion: bool = False
     forward_evidence: float = 10.0
+    held_direction: bool = True
     scale_memory: float = 10.0
     floor_yaw_tolerance: float = math.radians(1.0)
     manhattan: bool = False
@@ -315,6 +324,8 @@ class VisualOdometryConfig:
         require(f"{path}.floor_shared_information", self.floor_shared_information,
                 isinstance(self.floor_shared_information, bool) or self.floor_shared_information == "noisy",
                 'must be true, false or "noisy"')
+        require(f"{path}.held_direction", self.held_direction, isinstance(self.held_direction, bool),
+                "must be true or false")
         require(f"{path}.profile_expansion", self.profile_expansion, isinstance(self.profile_expansion, bool),
                 "must be true or false")
         require(f"{path}.manhattan_strength", self.manhattan_strength,

@@ -176,6 +176,36 @@ class CueSelectionMixin:
         near = readings[np.abs(readings[:, 0] - turn_rate) <= band, 1]
         return float(np.median(near)) if len(near) >= _TURN_MINIMUM else last
 
+    def _image_direction_speed(self, turn_rate: float, direction: int) -> float | None:
+        """The speed (m/s) held in the direction the whole image shows (eq. R12), at the averaged turn rate
+        ``turn_rate`` (rad/s); None where fewer than :data:`_TURN_MINIMUM` of the last observed speeds went
+        that way.
+
+        A held speed is a single observed speed carried on (eq. R8 falls back to the last one), and one
+        wrong minimum of the floor's alignment can make it backward: at a ramp's top, where the floor is not
+        one plane, gen3:133's floor read -1.18 and -0.62 m/s on two frames, and -0.62 m/s was then held
+        over 20 s of blank deck while the image's expansion (eq. R4) showed the robot driving forward (t = +7
+        to +108): the odometry drove 21 m backwards. The image gives the motion's sign, not its size; the
+        observed speeds give its size. Where the image shows the motion with significance
+        (|t| >= ``forward_evidence``) against the sign of the speed held (or the speed held is 0), the speed
+        held becomes the median of the observed speeds that went the image's way, among those at about the
+        same turn rate (eq. R8's band) where at least :data:`_TURN_MINIMUM` are, else among all the last
+        readings:
+
+            v_hold = median { v_k : sign(v_k) = sign(t), |w_k - w| <= b }                            (R12)
+
+        A single frame's expansion is not trusted alone against the observed speeds: with fewer than
+        :data:`_TURN_MINIMUM` observed speeds the image's way (a robot that has not been seen to drive so,
+        or a turn's expansion read the wrong way: t = -12 to -18 at gen3:133's blank corners driven
+        forward), the speed held stands, and only the hold's clock runs (``blind_hold``)."""
+        count = min(self._turn_count, len(self._turn_readings))
+        readings = self._turn_readings[:count]
+        same_way = readings[readings[:, 1] * direction > 0]
+        if len(same_way) < _TURN_MINIMUM:
+            return None
+        near = same_way[np.abs(same_way[:, 0] - turn_rate) <= self.config.blind_turn_band, 1]
+        return float(np.median(near if len(near) >= _TURN_MINIMUM else same_way[:, 1]))
+
     def _observed_motion(self, floor_distance: float, floor_yaw: float, aligned_yaw: float, image_sees_yaw: bool,
                          pitch_seen: bool, dt: float) -> tuple[float, float, Observed]:
         """Distance and yaw change of a frame off a transition, each from the cue that observes it.
@@ -299,8 +329,15 @@ class CueSelectionMixin:
         else:  # nothing sees the distance: a held speed (eq. R8), for blind_hold seconds after the image last
             # showed the robot moving in its direction (eq. R4's expansion, its scale unknown)
             evidence = config.forward_evidence
-            moving = (evidence > 0 and self._alignment is not None and self._held_speed != 0
-                      and math.copysign(1.0, self._held_speed) * self._alignment.expansion_significance() >= evidence)
+            direction = 0  # the motion's sign the image shows (eq. R4), 0 where it shows none
+            if evidence > 0 and self._alignment is not None:
+                significance = self._alignment.expansion_significance()
+                direction = 1 if significance >= evidence else -1 if significance <= -evidence else 0
+            if config.held_direction and direction * self._held_speed <= 0 < abs(direction):  # eq. R12
+                image_way = self._image_direction_speed(turn_rate, direction)
+                if image_way is not None:
+                    self._held_speed = image_way
+            moving = direction != 0 and direction * self._held_speed > 0
             self._blind_for = 0.0 if moving else self._blind_for + dt
             held = self._blind_for <= config.blind_hold
             distance, distance_source = (self._blind_speed(turn_rate) * dt, "held") if held else (0.0, "none")

@@ -328,6 +328,33 @@ def test_a_blind_stretch_longer_than_the_hold_keeps_its_speed_while_the_image_sh
     assert motions[1:, 0][blind].sum() < 0.7 * np.diff(path[:, 0])[blind].sum()
 
 
+@pytest.mark.parametrize("held_direction", [True, False])
+def test_a_backward_held_speed_turns_the_way_the_image_shows_the_motion(held_direction):
+    # the posted-walls scene above: marks for 4 m, then 16 m of blank floor. One wrong minimum of the floor's
+    # alignment (gen3:133's ramp top read -0.62 m/s) is set as the last observed speed on the first blind
+    # frame (the scenes cannot draw a ramp's top); the walls' expansion (eq. R4) shows the robot driving
+    # forward, so eq. R12 holds the forward speeds the floor observed, and the blind stretch reads its length
+    scene = Scene(floor=Texture("blobs", level=0.45, blank_beyond=-11.0), ceiling=None, half_width=3.0,
+                  wall_height=0.6, walls=Texture("tiles", level=0.4, scale=3.0, contrast=0.3, seed=1))
+    path = arc_path([(20.0, 0.0)], start=(-15.0, -1.0, 0.0))
+    odometry = VisualOdometry(VisualOdometryConfig(held_direction=held_direction))
+    read, sources = [], []
+    for k, pose in enumerate(path):
+        motion = odometry.step(scene.render(*pose), 0.1 if k else 0.0)
+        source = motion.observed.distance if k else ""
+        if source == "held" and not sources:
+            odometry._held_speed = -0.62  # the wrong reading, as if the floor's last one
+        if sources or source == "held":
+            sources.append(source)
+            read.append(motion.forward_speed * 0.1)
+    blind_length = np.diff(path[:, 0])[-len(read) + 1:].sum()
+    assert sources.count("held") > 120 and set(sources) <= {"held", "floor"}
+    if held_direction:
+        assert sum(read[1:]) == pytest.approx(blind_length, rel=0.10)
+    else:  # the old hold drives backwards: the stretch reads less than nothing
+        assert sum(read[1:]) < 0.0
+
+
 def test_a_blind_straight_after_a_slow_bend_holds_the_straight_speed_not_the_bend_s():
     # 8 m straight at 1 m/s over marks, a lane change (45 degrees left, then back, 1 m each) at 0.4 m/s where the
     # floor turns blank, then 16 m straight at 1 m/s over the blank floor between the low posted walls of the

@@ -353,6 +353,8 @@ def test_a_backward_held_speed_turns_the_way_the_image_shows_the_motion(held_dir
         assert sum(read[1:]) == pytest.approx(blind_length, rel=0.10)
     else:  # the old hold drives backwards: the stretch reads less than nothing
         assert sum(read[1:]) < 0.0
+    with pytest.raises(ValueError, match="held_direction"):
+        VisualOdometryConfig(held_direction=1)
 
 
 def test_a_blind_straight_after_a_slow_bend_holds_the_straight_speed_not_the_bend_s():

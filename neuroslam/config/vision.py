@@ -185,7 +185,11 @@ class VisualOdometryConfig:
             :meth:`neuroslam.vision.cues.CueSelectionMixin._image_direction_speed`), where at least ten did.
             A held speed is one floor reading carried on, and one wrong minimum at a ramp's top (the floor not
             one plane) made it backward: gen3:133's odometry drove 21 m backwards over a blank deck while
-            the image showed it driving forward. False: the speed held stands, only the hold's clock runs.
+            the image showed it driving forward. False (the default): the speed held stands, only the hold's
+            clock runs. Off: on the camera benchmark the odometry's ATE was better by more than 5 cm on 12
+            worlds and worse on 2, SLAM ATE median / p90 1.11 / 5.56 -> 0.99 / 5.44 m, every target on the
+            same 32 worlds, but gen3:136, a catastrophe either way, went 11.19 -> 14.95 m, the worst, and its
+            map above its odometry (docs/generalization.md, the forty-first step).
         scale_memory: seconds over which the metric scale of the upper image's expansion (walls, ceiling) is
             learnt from the floor's distance, to be carried where the floor shows none (a time constant).
         floor_yaw_tolerance: with ``ground`` and ``transitions``, the largest disagreement between the floor's
@@ -263,7 +267,7 @@ class VisualOdometryConfig:
     faint_yaw_after_profile: bool = True
     profile_expansion: bool = False
     forward_evidence: float = 10.0
-    held_direction: bool = True
+    held_direction: bool = False
     scale_memory: float = 10.0
     floor_yaw_tolerance: float = math.radians(1.0)
     manhattan: bool = False

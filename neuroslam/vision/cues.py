@@ -197,7 +197,8 @@ class CueSelectionMixin:
         A single frame's expansion is not trusted alone against the observed speeds: with fewer than
         :data:`_TURN_MINIMUM` observed speeds the image's way (a robot that has not been seen to drive so,
         or a turn's expansion read the wrong way: t = -12 to -18 at gen3:133's blank corners driven
-        forward), the speed held stands, and only the hold's clock runs (``blind_hold``)."""
+        forward), the speed held stands, and only the hold's clock runs (``blind_hold``). An option,
+        ``odometry.held_direction``, off by default (docs/generalization.md, the forty-first step)."""
         count = min(self._turn_count, len(self._turn_readings))
         readings = self._turn_readings[:count]
         same_way = readings[readings[:, 1] * direction > 0]

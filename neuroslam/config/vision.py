@@ -186,7 +186,7 @@ class VisualOdometryConfig:
             A held speed is one floor reading carried on, and one wrong minimum at a ramp's top (the floor not
             one plane) made it backward: gen3:133's odometry drove 21 m backwards over a blank deck while
             the image showed it driving forward. False (the default): the speed held stands, only the hold's
-            clock runs. Off: on the camera benchmark the odometry's ATE was better by more than 5 cm on 12
+            clock runs. Off: on the camera benchmark the odometry's ATE was better by more than 5 cm on 10
             worlds and worse on 2, SLAM ATE median / p90 1.11 / 5.56 -> 0.99 / 5.44 m, every target on the
             same 32 worlds, but gen3:136, a catastrophe either way, went 11.19 -> 14.95 m, the worst, and its
             map above its odometry (docs/generalization.md, the forty-first step).

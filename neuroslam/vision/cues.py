@@ -176,10 +176,9 @@ class CueSelectionMixin:
         near = readings[np.abs(readings[:, 0] - turn_rate) <= band, 1]
         return float(np.median(near)) if len(near) >= _TURN_MINIMUM else last
 
-    def _image_direction_speed(self, turn_rate: float, direction: int) -> float | None:
-        """The speed (m/s) held in the direction the whole image shows (eq. R12), at the averaged turn rate
-        ``turn_rate`` (rad/s); None where fewer than :data:`_TURN_MINIMUM` of the last observed speeds went
-        that way.
+    def _image_direction_speed(self, direction: int) -> float | None:
+        """The speed (m/s) to hold in the direction ``direction`` (+1 forward, -1 backward) the whole image
+        shows (eq. R12); None where fewer than :data:`_TURN_MINIMUM` of the last observed speeds went that way.
 
         A held speed is a single observed speed carried on (eq. R8 falls back to the last one), and one
         wrong minimum of the floor's alignment can make it backward: at a ramp's top, where the floor is not
@@ -188,11 +187,12 @@ class CueSelectionMixin:
         to +108): the odometry drove 21 m backwards. The image gives the motion's sign, not its size; the
         observed speeds give its size. Where the image shows the motion with significance
         (|t| >= ``forward_evidence``) against the sign of the speed held (or the speed held is 0), the speed
-        held becomes the median of the observed speeds that went the image's way, among those at about the
-        same turn rate (eq. R8's band) where at least :data:`_TURN_MINIMUM` are, else among all the last
-        readings:
+        held becomes the median of the last observed speeds that went the image's way,
 
-            v_hold = median { v_k : sign(v_k) = sign(t), |w_k - w| <= b }                            (R12)
+            v_last = median { v_k : sign(v_k) = sign(t) }                                             (R12)
+
+        and eq. R8 then holds the speed observed at the turn rate where it has enough readings, this where it
+        has not.
 
         A single frame's expansion is not trusted alone against the observed speeds: with fewer than
         :data:`_TURN_MINIMUM` observed speeds the image's way (a robot that has not been seen to drive so,
@@ -200,12 +200,9 @@ class CueSelectionMixin:
         forward), the speed held stands, and only the hold's clock runs (``blind_hold``). An option,
         ``odometry.held_direction``, off by default (docs/generalization.md, the forty-first step)."""
         count = min(self._turn_count, len(self._turn_readings))
-        readings = self._turn_readings[:count]
-        same_way = readings[readings[:, 1] * direction > 0]
-        if len(same_way) < _TURN_MINIMUM:
-            return None
-        near = same_way[np.abs(same_way[:, 0] - turn_rate) <= self.config.blind_turn_band, 1]
-        return float(np.median(near if len(near) >= _TURN_MINIMUM else same_way[:, 1]))
+        speeds = self._turn_readings[:count, 1]
+        same_way = speeds[speeds * direction > 0]
+        return float(np.median(same_way)) if len(same_way) >= _TURN_MINIMUM else None
 
     def _observed_motion(self, floor_distance: float, floor_yaw: float, aligned_yaw: float, image_sees_yaw: bool,
                          pitch_seen: bool, dt: float) -> tuple[float, float, Observed]:
@@ -335,7 +332,7 @@ class CueSelectionMixin:
                 significance = self._alignment.expansion_significance()
                 direction = 1 if significance >= evidence else -1 if significance <= -evidence else 0
             if config.held_direction and direction * self._held_speed <= 0 < abs(direction):  # eq. R12
-                image_way = self._image_direction_speed(turn_rate, direction)
+                image_way = self._image_direction_speed(direction)
                 if image_way is not None:
                     self._held_speed = image_way
             moving = direction != 0 and direction * self._held_speed > 0

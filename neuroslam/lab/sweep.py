@@ -245,6 +245,9 @@ def run_sweep(worlds: list[str], seeds: int, grid: list[tuple], out: Path, *, la
                     row.update({field: json.dumps(value) if not isinstance(value, str) else value
                                 for field, value in drive.setting})
                     row.update(flatten(outcome.get("metrics", {})))
+                    # the world as asked for (an MJCF file's path, not the name its metrics give): what a later
+                    # sweep into this folder matches its worlds against
+                    row["world"] = drive.world
                     rows.append(row)
                     failed += outcome["status"] != "ok"
                     _write_results(results, rows, grid_fields)  # a crash later loses no finished drive

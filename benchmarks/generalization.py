@@ -1,10 +1,10 @@
 """Does the accuracy hold on worlds nobody tuned on? The distribution over many generated worlds.
 
 Run: ``python benchmarks/generalization.py --out runs/generalization [--odometry wheel] [--quick]
-[--camera-noise] [--generator N] [--workers 2] [--laps 2] [--grid FIELD=VALUE ...]``. A measurement, not a
-test: it asserts nothing and is not part of the pytest run. About an hour with 2 workers on an idle 2-core
-machine (464,000 frames at about 14 ms each; 2½ hours beside other work; ``--quick``: 59,000 frames, about 15
-minutes).
+[--handwritten] [--camera-noise] [--generator N] [--workers 2] [--laps 2] [--grid FIELD=VALUE ...]``. A
+measurement, not a test: it asserts nothing and is not part of the pytest run. About an hour with 2 workers on
+an idle 2-core machine (464,000 frames at about 14 ms each; 2½ hours beside other work; ``--quick``: 59,000
+frames, about 15 minutes; ``--handwritten``: about 3 minutes).
 
 What it does: drives the main route of every world below (2 laps, camera only unless ``--odometry`` says
 otherwise, the default preset) through ``neuroslam sweep`` on a local Ray instance, one drive per worker,
@@ -12,7 +12,9 @@ and scores each drive as ``metrics.json`` does. The worlds are the three built-i
 seeds 100 to 139 of the generator's latest version (``--generator 1``: of version 1, on which the first
 measurements were made): a range fixed before any result was seen, disjoint from the development worlds
 ``gen1:1``–``gen1:3`` (and so not chosen to flatter or to embarrass the method). ``--quick`` drives the first
-10 generated worlds and the car park, 1 lap.
+10 generated worlds and the car park, 1 lap. ``--handwritten`` drives the hand-written MJCF worlds of
+``benchmarks/worlds/`` instead (:data:`HANDWRITTEN`: worlds a person wrote as MJCF files, outside the
+generator's family; ``benchmarks/worlds/README.md`` says what each is for).
 
 It writes ``OUT/results.csv`` (the sweep's rows: every number of every drive's metrics), ``OUT/worlds.md``
 (one row per world: SLAM and odometry ATE, their ratio, false closures, level accuracy, the shares of
@@ -40,6 +42,8 @@ from neuroslam.lab.sweep import expand_worlds, parse_grid, run_sweep
 from sim.arenas import GENERATOR_VERSION, GENERATOR_VERSIONS
 
 BUILT_IN = ["carpark", "urban", "building"]
+# MJCF files written by hand, not by the generator (``--handwritten``), each with its NAME.routes.json
+HANDWRITTEN = sorted(str(path) for path in (Path(__file__).resolve().parent / "worlds").glob("*.xml"))
 SEEDS = range(100, 140)  # fixed before any result was seen
 # ``--camera-noise``: a small camera's sensor at 8 bits (read noise 2 grey levels, photon noise 4 at white) and
 # a 20 ms shutter (2 cm of travel at 1 m/s: under a pixel of blur on the near floor)
@@ -126,6 +130,11 @@ def _cell(value, digits: int = 2) -> str:
     return "–" if value is None else f"{value:.{digits}f}"
 
 
+def _shown(world: str) -> str:
+    """A world as the tables name it: an MJCF file by its file name, others as given."""
+    return Path(world).name if world.endswith(".xml") else world
+
+
 def table(rows: list[dict]) -> str:
     """The per-world markdown table, worst SLAM ATE first."""
     blind_names = sorted({name for row in rows for name in row["blind"]})
@@ -134,7 +143,7 @@ def table(rows: list[dict]) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for row in sorted(rows, key=lambda r: -r["slam"]):
         missed = [name for name, met in row["targets"].items() if not met]
-        cells = [row["world"], _cell(row["distance"], 0), _cell(row["slam"]), _cell(row["odometry"]),
+        cells = [_shown(row["world"]), _cell(row["distance"], 0), _cell(row["slam"]), _cell(row["odometry"]),
                  _cell(row["ratio"]), f"{row['closures']} ({row['false_closures']})", _cell(row["level_accuracy"], 3),
                  *(_cell(row["blind"].get(name), 3) for name in blind_names), ", ".join(missed) or "none"]
         lines.append("| " + " | ".join(cells) + " |")
@@ -155,7 +164,7 @@ def report(summary: dict) -> list[str]:
     blind = summary.get("largely_blind")
     if blind:
         lines.append(f"{len(blind['worlds'])} of them blind in distance or yaw on more than {blind['limit']:.0%} of "
-                     f"their frames ({', '.join(blind['worlds'])}); the others alone:")
+                     f"their frames ({', '.join(map(_shown, blind['worlds']))}); the others alone:")
         lines.extend(report(blind["others"]))
     return lines
 
@@ -196,7 +205,10 @@ def main(argv: list[str] | None = None) -> int:
                         help=f"a real camera's noise: {CAMERA_NOISE} (grey levels of 255; s)")
     parser.add_argument("--laps", type=int, help="laps per drive (default: 2, or 1 with --quick)")
     parser.add_argument("--workers", type=int, default=2, help="drives at once (default: 2)")
-    parser.add_argument("--worlds", nargs="+", help="other worlds instead of the benchmark's (gen:A-B ranges too)")
+    chosen = parser.add_mutually_exclusive_group()
+    chosen.add_argument("--worlds", nargs="+", help="other worlds instead of the benchmark's (gen:A-B ranges too)")
+    chosen.add_argument("--handwritten", action="store_true",
+                        help=f"the {len(HANDWRITTEN)} hand-written MJCF worlds of benchmarks/worlds/ instead")
     parser.add_argument("--generator", type=int, choices=GENERATOR_VERSIONS, default=GENERATOR_VERSION,
                         help=f"the world generator's version (default: the latest, {GENERATOR_VERSION}; 1 and 2 give "
                              "the worlds measured before versions 2 and 3)")
@@ -204,8 +216,12 @@ def main(argv: list[str] | None = None) -> int:
                         help="one configuration setting over the default preset (one value per field)")
     args = parser.parse_args(argv)
     generated = [f"gen{args.generator}:{seed}" for seed in SEEDS]
-    worlds = expand_worlds(args.worlds) if args.worlds else (["carpark", *generated[:10]] if args.quick
-                                                             else BUILT_IN + generated)
+    if args.handwritten:
+        worlds = HANDWRITTEN
+    elif args.worlds:
+        worlds = expand_worlds(args.worlds)
+    else:
+        worlds = ["carpark", *generated[:10]] if args.quick else BUILT_IN + generated
     laps = args.laps or (1 if args.quick else 2)
     grid = parse_grid(args.grid)
     if len(grid) != 1:

@@ -32,6 +32,7 @@ def test_presets_exist_and_differ():
     ({"odometry": {"near_floor_row": 1.0}}, "odometry.near_floor_row", "0 (off) or a fraction in (0.3, 1)"),
     ({"odometry": {"near_floor_row": "near"}}, "odometry.near_floor_row", "0 (off) or a fraction in (0.3, 1)"),
     ({"odometry": {"slope_half_width": -1.0}}, "odometry.slope_half_width", ">= 0"),
+    ({"odometry": {"slope_near_floor": True, "near_floor_row": 0.0}}, "odometry.slope_near_floor", "near_floor_row"),
     ({"odometry": {"floor_aperture": 1.6}}, "odometry.floor_aperture", "[0, pi/2)"),
     ({"odometry": {"floor_aperture": -0.1}}, "odometry.floor_aperture", "[0, pi/2)"),
     ({"odometry": {"manhattan": "yes"}}, "odometry.manhattan", "true or false"),

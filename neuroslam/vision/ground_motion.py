@@ -84,6 +84,17 @@ slope),
 and the whole near floor elsewhere. (On the floors the whole near floor reads straighter: the lane there turned
 the building's flat straights -10.6 -> -32.8 degrees over 455 m, docs/generalization.md.)
 
+A ramp's far floor reads its distance short. Eq. G3 alone over a hand-written car park's recorded ramps reads
+them 0.882 of their length, 0.995 on eq. G4's near floor alone; over a generated world's (gen3:103) 0.964
+and 0.997, where both read its floors alike (docs/generalization.md, forty-second step). The far rows of a
+ramp show its top or foot, where another plane begins, and on a ramp of large tiles a few sharp edges that
+the renderer moves in whole pixels. With ``slope_near_floor`` set, eq. G3's floor region is therefore eq.
+G4's near floor while :attr:`GroundMotion.on_slope` is set,
+
+    Q = { q in eq. G4's near floor }     on a slope                                          (G9)
+
+and the whole floor elsewhere.
+
 Whether the floor sees the distance at all is decided by its information on it (``min_information``). An
 edge that runs along the path (a wall's foot, a ramp's side, a line along the lane) carries none: a forward
 step slides it along itself and the image does not change (the aperture problem). Its pixels'
@@ -195,6 +206,8 @@ class GroundMotion:
         near_tolerance: the largest change of the yaw eq. G4 may make, rad per frame.
         half_width: the floor region's half width beside the path, m (eq. G5); 0 (the default) takes every
             floor pixel below ``first_row``. Only for the floor (a ceiling's plane has no lane).
+        slope_near_floor: eq. G3's floor region is eq. G4's near floor (below ``near_row``) while :attr:`on_slope`
+            is set (eq. G9); needs ``near_row``.
         slope_half_width: eq. G4's near floor's half width beside the path while :attr:`on_slope` is set, m (eq.
             G7); 0 (the default) keeps the whole near floor on slopes too. Only for the floor.
         aperture: rad; a pixel counts towards the information on the distance (eq. G6, what
@@ -214,7 +227,8 @@ class GroundMotion:
                  first_row: float = 0.3, smoothing: float = 1.0, robust_scale: float = 0.05, iterations: int = 10,
                  min_information: float = 0.3, near_row: float = 0.0, near_information: float = 3.0,
                  near_tolerance: float = 0.03, levels: int = 2, surface: str = "floor", half_width: float = 0.0,
-                 aperture: float = 0.0, slope_half_width: float = 0.0, shared_information: bool = False):
+                 aperture: float = 0.0, slope_half_width: float = 0.0, shared_information: bool = False,
+                 slope_near_floor: bool = False):
         if surface not in ("floor", "ceiling"):
             raise ValueError(f"surface={surface!r}: must be 'floor' or 'ceiling'")
         if not half_width >= 0 or (half_width and surface != "floor"):
@@ -222,6 +236,10 @@ class GroundMotion:
         if not slope_half_width >= 0 or (slope_half_width and surface != "floor"):
             raise ValueError(f"slope_half_width={slope_half_width!r}: must be 0 or more, and 0 for a ceiling")
         self.slope_half_width = float(slope_half_width)
+        if slope_near_floor and (surface != "floor" or not near_row > 0):
+            raise ValueError(f"slope_near_floor={slope_near_floor!r}: only for a floor with a near floor "
+                             "(near_row > 0)")
+        self.slope_near_floor = bool(slope_near_floor)
         # whether the robot is on a slope: eq. G4's near floor is then eq. G7's lane (set by the odometry)
         self.on_slope = False
         if not 0 <= aperture < math.pi / 2:
@@ -330,7 +348,8 @@ class GroundMotion:
         (with ``near_only``, those of eq. G4's near floor alone, within eq. G7's lane on a slope; with ``whole``,
         beyond eq. G5's lane too)."""
         slope_lane = self.slope_half_width if near_only and self.on_slope else 0.0
-        cached = self._geometry.get((shape, near_only, whole, slope_lane))
+        near_floor = near_only or (self.slope_near_floor and self.on_slope and not whole)  # eqs. G4 and G9
+        cached = self._geometry.get((shape, near_only, whole, slope_lane, near_floor))
         if cached is not None:
             return cached
         rows, columns = shape
@@ -350,7 +369,7 @@ class GroundMotion:
         if self.half_width > 0 and not whole:  # eq. G5: the lane beside the path alone
             lane = np.abs(ground[1]) <= self.half_width
             indices, ground, v = indices[lane], np.ascontiguousarray(ground[:, lane]), v[lane]
-        if near_only:  # the near floor of eq. G4 (within eq. G7's lane on a slope)
+        if near_floor:  # the near floor of eq. G4 (within eq. G7's lane on a slope), or eq. G9's region
             near = v >= centre_v + self.near_row * rows / 2
             if slope_lane > 0:
                 near &= np.abs(ground[1]) <= slope_lane
@@ -359,7 +378,7 @@ class GroundMotion:
         inverse = 1.0 / np.maximum(ground[0] - self.camera_forward, 0.2)
         flow = (focal * inverse * inverse) ** 2 * (ground[1] ** 2 + self._height**2)
         cached = (focal, centre_u, centre_v, indices, ground, flow.astype(np.float32))
-        self._geometry[(shape, near_only, whole, slope_lane)] = cached
+        self._geometry[(shape, near_only, whole, slope_lane, near_floor)] = cached
         return cached
 
     def step(self, grey_image: np.ndarray) -> tuple[float, float]:

@@ -374,16 +374,16 @@ def test_eq_g8_sees_sparse_marks():
 
 def test_on_a_slope_the_floor_region_is_the_near_floor():
     """Eq. G9: on a slope with ``slope_near_floor``, eq. G3 reads the near floor alone (the estimates of a floor
-    region starting at ``near_row``, exactly); off a slope it changes nothing."""
+    region starting at ``near_row`` without eq. G4, exactly); off a slope it changes nothing."""
     images = drive(floor_texture(8), [(0.1, 0.01)] * 20)
 
-    def estimates(on_slope, **options):
+    def estimates(on_slope, near_row=0.5, **options):
         motion = GroundMotion(horizontal_fov=FOV, camera_height=CAMERA_HEIGHT, camera_forward=CAMERA_FORWARD,
-                              near_row=0.5, **options)
+                              near_row=near_row, **options)
         motion.on_slope = on_slope
         return np.array([motion.step(image) for image in images])
     near = estimates(True, slope_near_floor=True)
-    np.testing.assert_array_equal(near, estimates(True, first_row=0.5))
+    np.testing.assert_array_equal(near, estimates(True, near_row=0.0, first_row=0.5))
     np.testing.assert_array_equal(estimates(False, slope_near_floor=True), estimates(True))
     assert not np.array_equal(near, estimates(True))  # the far floor did take part without it
     np.testing.assert_allclose(near[1:], [(0.1, 0.01)] * 20, atol=0.005)

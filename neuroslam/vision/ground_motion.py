@@ -86,10 +86,11 @@ the building's flat straights -10.6 -> -32.8 degrees over 455 m, docs/generaliza
 
 A ramp's far floor reads its distance short. Eq. G3 alone over a hand-written car park's recorded ramps reads
 them 0.882 of their length, 0.995 on eq. G4's near floor alone; over a generated world's (gen3:103) 0.964
-and 0.997, where both read its floors alike (docs/generalization.md, forty-second step). The far rows of a
+and 0.997 (docs/generalization.md, forty-second step). The far rows of a
 ramp show its top or foot, where another plane begins, and on a ramp of large tiles a few sharp edges that
 the renderer moves in whole pixels. With ``slope_near_floor`` set, eq. G3's floor region is therefore eq.
-G4's near floor while :attr:`GroundMotion.on_slope` is set,
+G4's near floor while :attr:`GroundMotion.on_slope` is set (and eq. G4, which would solve the yaw again on the
+same pixels, is skipped),
 
     Q = { q in eq. G4's near floor }     on a slope                                          (G9)
 
@@ -407,7 +408,8 @@ class GroundMotion:
             finest = level == len(current) - 1  # coarser levels only start the next: stop them sooner
             distance, turn = self._align(old, new, distance, turn, prior, tolerance=1.0 if finest else 5.0,
                                          whole=whole, shared=self.shared_information and finest)
-        if self.near_row > 0 and not whole:  # eq. G4: the yaw again on the near floor alone, from the full solution
+        # eq. G4: the yaw again on the near floor alone, from the full solution (not where eq. G9 solved on it)
+        if self.near_row > 0 and not whole and not (self.slope_near_floor and self.on_slope):
             near_turn, information = self._align(previous[-1], current[-1], distance, turn, prior, near_only=True)
             if (information >= self.near_information * (self.robust_scale / _PRIOR_TURN) ** 2
                     and abs(near_turn - turn) <= self.near_tolerance):

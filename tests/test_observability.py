@@ -357,6 +357,31 @@ def test_a_backward_held_speed_turns_the_way_the_image_shows_the_motion(held_dir
         VisualOdometryConfig(held_direction=1)
 
 
+@pytest.mark.parametrize("ceiling_on_slopes", [True, False])
+def test_the_ceiling_is_not_read_on_a_slope_unless_asked(ceiling_on_slopes):
+    # the hall of the blank-floor test above (marks for its first 3 m, a textured ceiling 3 m high): the ceiling
+    # carries the distance over the blank floor in the scale the floor gave it. The scenes cannot draw a ramp,
+    # so the pitch held is set to a 6-degree slope on every frame, as the odometry holds it on a ramp: with
+    # ceiling_on_slopes off, the ceiling (not parallel to a ramp's floor) is neither read nor learnt from there
+    scene = Scene(floor=Texture("blobs", level=0.45, blank_beyond=-3.0), **HALL)
+    path = arc_path([(12.0, 0.0)], start=(-8.0, -4.0, 0.0))
+    config = VisualOdometryConfig(ceiling_on_slopes=ceiling_on_slopes)
+    level, _ = drive(scene, path, config)
+    np.testing.assert_array_equal(level, drive(scene, path)[0])  # off a slope it changes nothing
+    odometry, sources, learnt = VisualOdometry(config), [], []
+    for k, pose in enumerate(path):
+        odometry.transitions.pitch = math.radians(6.0)
+        motion = odometry.step(scene.render(*pose), 0.1 if k else 0.0)
+        sources.append(motion.observed.distance if k else "")
+        learnt.append(float(odometry._ceiling_sums[1]))
+    if ceiling_on_slopes:
+        assert sources.count("ceiling") > 20 and max(learnt) > 0
+    else:
+        assert "ceiling" not in sources and max(learnt) == 0
+    with pytest.raises(ValueError, match="ceiling_on_slopes"):
+        VisualOdometryConfig(ceiling_on_slopes="no")
+
+
 def test_a_blind_straight_after_a_slow_bend_holds_the_straight_speed_not_the_bend_s():
     # 8 m straight at 1 m/s over marks, a lane change (45 degrees left, then back, 1 m each) at 0.4 m/s where the
     # floor turns blank, then 16 m straight at 1 m/s over the blank floor between the low posted walls of the

@@ -196,6 +196,12 @@ class VisualOdometryConfig:
             worlds and worse on 2, SLAM ATE median / p90 1.11 / 5.56 -> 0.99 / 5.44 m, every target on the
             same 32 worlds, but gen3:136, a catastrophe either way, went 11.19 -> 14.95 m, the worst, and its
             map above its odometry (docs/generalization.md, the forty-first step).
+        ceiling_on_slopes: with ``ground`` and ``transitions``, the ceiling's distance (eq. S1 of
+            :meth:`neuroslam.vision.cues.CueSelectionMixin._observed_motion`) is read, and its height learnt, on
+            slopes too (the pitch held a slope, as eq. G7). A ceiling is a plane parallel to the floor only over a
+            level floor: over a ramp a level ceiling stands tilted by the slope against the camera and its
+            height above the robot changes along the ramp, which eq. G1's parallel plane does not model.
+            False: on a slope the ceiling is neither read nor learnt from.
         scale_memory: seconds over which the metric scale of the upper image's expansion (walls, ceiling) is
             learnt from the floor's distance, to be carried where the floor shows none (a time constant).
         floor_yaw_tolerance: with ``ground`` and ``transitions``, the largest disagreement between the floor's
@@ -275,6 +281,7 @@ class VisualOdometryConfig:
     profile_expansion: bool = False
     forward_evidence: float = 10.0
     held_direction: bool = False
+    ceiling_on_slopes: bool = True
     scale_memory: float = 10.0
     floor_yaw_tolerance: float = math.radians(1.0)
     manhattan: bool = False
@@ -339,6 +346,8 @@ class VisualOdometryConfig:
                 isinstance(self.floor_shared_information, bool) or self.floor_shared_information == "noisy",
                 'must be true, false or "noisy"')
         require(f"{path}.held_direction", self.held_direction, isinstance(self.held_direction, bool),
+                "must be true or false")
+        require(f"{path}.ceiling_on_slopes", self.ceiling_on_slopes, isinstance(self.ceiling_on_slopes, bool),
                 "must be true or false")
         require(f"{path}.profile_expansion", self.profile_expansion, isinstance(self.profile_expansion, bool),
                 "must be true or false")

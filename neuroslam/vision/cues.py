@@ -287,6 +287,8 @@ class CueSelectionMixin:
                 self._ceiling_previous, ground.pyramid, self._held_speed * dt, yaw or 0.0)
             if whole_information >= _FIRM_FLOOR:
                 firm, floor_distance = True, float(np.clip(whole_distance, -limit_distance, limit_distance))
+        # odometry.ceiling_on_slopes: over a ramp a level ceiling is not the plane parallel to the floor of eq. G1
+        ceiling_plane = config.ceiling_on_slopes or not ground.on_slope
         distance, distance_source = None, ""
         if firm:
             distance, distance_source = floor_distance, "floor"
@@ -297,16 +299,17 @@ class CueSelectionMixin:
             self._ceiling_countdown -= 1
             if floor_distance > 0 and self._ceiling_countdown <= 0:
                 self._ceiling_countdown = _CEILING_EVERY
-                reading, _ = ceiling.align(self._ceiling_previous, ground.pyramid,
-                                           (floor_distance / (height or _NOMINAL_CEILING), yaw or 0.0))
-                if ceiling.sees_distance and reading > 0:
-                    self._ceiling_sums += (floor_distance * reading, reading**2, floor_distance**2)
+                if ceiling_plane:
+                    reading, _ = ceiling.align(self._ceiling_previous, ground.pyramid,
+                                               (floor_distance / (height or _NOMINAL_CEILING), yaw or 0.0))
+                    if ceiling.sees_distance and reading > 0:
+                        self._ceiling_sums += (floor_distance * reading, reading**2, floor_distance**2)
                 expansion, expansion_information = alignment.upper_expansion() if image_sees_yaw else (0.0, 0.0)
                 if expansion > 0 and expansion_information > 0:
                     self._scale_sums += (floor_distance * expansion, expansion**2, floor_distance**2)
         else:
             previous_distance = self._held_speed * dt
-            if height > 0:  # from the yaw taken above (the floor's own may be the wrong minimum just refused)
+            if height > 0 and ceiling_plane:  # from the yaw taken above (the floor's own may be the wrong minimum)
                 reading, ceiling_yaw = ceiling.align(self._ceiling_previous, ground.pyramid,
                                                      (previous_distance / height, yaw or 0.0))
                 if (ceiling.information[0] / height**2 >= ceiling.min_information and reading >= 0

@@ -32,7 +32,7 @@ def test_presets_exist_and_differ():
     ({"odometry": {"near_floor_row": 1.0}}, "odometry.near_floor_row", "0 (off) or a fraction in (0.3, 1)"),
     ({"odometry": {"near_floor_row": "near"}}, "odometry.near_floor_row", "0 (off) or a fraction in (0.3, 1)"),
     ({"odometry": {"slope_half_width": -1.0}}, "odometry.slope_half_width", ">= 0"),
-    ({"odometry": {"slope_near_floor": True, "near_floor_row": 0.0}}, "odometry.slope_near_floor", "near_floor_row"),
+    ({"odometry": {"slope_near_floor": 1}}, "odometry.slope_near_floor", "true or false"),
     ({"odometry": {"floor_aperture": 1.6}}, "odometry.floor_aperture", "[0, pi/2)"),
     ({"odometry": {"floor_aperture": -0.1}}, "odometry.floor_aperture", "[0, pi/2)"),
     ({"odometry": {"manhattan": "yes"}}, "odometry.manhattan", "true or false"),
@@ -70,6 +70,16 @@ def test_bad_settings_name_the_field(data, field, text):
         Config.from_dict(data)
     assert error.value.field == field
     assert text in str(error.value)
+
+
+def test_no_near_floor_leaves_eq_g9_off():
+    # eq. G9 (on by default) reads eq. G4's near floor on a slope; with no near floor (near_floor_row 0, eq. G4
+    # off) there is none to read, and the odometry builds with the whole floor on slopes too
+    from neuroslam.vision.odometry import VisualOdometry
+
+    config = Config.from_dict({"odometry": {"near_floor_row": 0.0}})
+    assert config.odometry.slope_near_floor
+    assert not VisualOdometry(config.odometry)._ground.slope_near_floor
 
 
 def test_files_round_trip(tmp_path):

@@ -222,7 +222,8 @@ class CueSelectionMixin:
           the path; where the lane does not see it firmly, the whole floor's, whose walls' feet lie on the floor
           plane, its distance alone: :meth:`~.ground_motion.GroundMotion.whole_floor_distance`); the ceiling's
           (eqs. G1–G3 on the image above the horizon, a plane H above the camera: it gives d / H) times the
-          ceiling height the floor last gave it; the expansion e of the upper image (walls, ceiling, eq. R1)
+          ceiling height the floor last gave it (off slopes only, unless ``odometry.ceiling_on_slopes``: a level
+          ceiling over a ramp is not parallel to its floor); the expansion e of the upper image (walls, ceiling, eq. R1)
           times the scale the floor last gave it, where the image sees the motion; else held.
 
         The scale of each, H or s (metres of travel per unit: the ceiling's height above the camera, or about

@@ -94,7 +94,10 @@ same pixels, is skipped),
 
     Q = { q in eq. G4's near floor }     on a slope                                          (G9)
 
-and the whole floor elsewhere.
+and the whole floor elsewhere. (The odometry's default since the forty-fourth step. Where the near floor of a
+faint ramp sees too little of the distance, the odometry holds the speed, and it holds it right only with eq.
+R12 and without the ceiling over the ramp, ``odometry.held_direction`` and ``odometry.ceiling_on_slopes``: eq.
+G9 alone made two catastrophes on ten unseen generated worlds, the forty-third step.)
 
 Whether the floor sees the distance at all is decided by its information on it (``min_information``). An
 edge that runs along the path (a wall's foot, a ramp's side, a line along the lane) carries none: a forward

@@ -122,7 +122,7 @@ class VisualOdometry(CueSelectionMixin):
                                         half_width=config.floor_half_width, aperture=config.floor_aperture,
                                         min_information=config.floor_min_information,
                                         slope_half_width=config.slope_half_width,
-                                        slope_near_floor=config.slope_near_floor,
+                                        slope_near_floor=config.slope_near_floor and config.near_floor_row > 0,
                                         shared_information=config.floor_shared_information is True)
         self._alignment = self.transitions = None
         self._speed = 0.0  # m/s, the last speed measured off a transition (held across one)

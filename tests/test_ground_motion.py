@@ -268,19 +268,22 @@ def striped_wall(rows=400):
     return ndimage.gaussian_filter(np.where((along % 0.25) < 0.06, 0.25, 0.55)[None, :].repeat(rows, 0), 1.0)
 
 
+@pytest.mark.parametrize("near_floor", [False, True])
 @pytest.mark.parametrize("wall_left", [1.1, 1.3])
-def test_on_a_slope_the_near_floor_is_the_lane(wall_left):
+def test_on_a_slope_the_near_floor_is_the_lane(wall_left, near_floor):
     """Eq. G7: driving straight 10 m over a faint floor (intensity's standard deviation 0.027) beside a striped
     wall 1.1 m to the left, the wall's face enters eq. G4's near floor at its top outer corner (its top row spans
     1.3 m to either side) and outweighs the floor: the whole near floor reads -4.7 degrees (measured), the lane
     within 1 m of the path -0.36. With the wall 1.3 m away it does not reach the near floor and the two read alike
-    (-0.30, -0.36). Off a slope ``slope_half_width`` changes nothing (the estimates are identical)."""
+    (-0.30, -0.36). Off a slope ``slope_half_width`` changes nothing (the estimates are identical). With eq. G9
+    (``near_floor``: eq. G3 itself reads the near floor on a slope) the lane bounds that region too: -5.6 degrees
+    without it beside the 1.1 m wall, -0.36 with it (the lane did nothing there before the forty-fifth step)."""
     floor, wall = floor_texture(4), striped_wall()
     images = [render_beside_wall(floor, wall, 0.1 * k, wall_left=wall_left) for k in range(101)]
     turned, estimates = {}, {}
-    for lane, on_slope in ((0.0, True), (1.0, True), (1.0, False)):
+    for lane, on_slope in ((0.0, True), (1.0, True), (1.0, False), (0.0, False)):
         motion = GroundMotion(horizontal_fov=FOV, camera_height=CAMERA_HEIGHT, camera_forward=CAMERA_FORWARD,
-                              near_row=0.5, slope_half_width=lane)
+                              near_row=0.5, slope_half_width=lane, slope_near_floor=near_floor)
         motion.on_slope = on_slope
         estimates[lane, on_slope] = np.array([motion.step(image) for image in images])
         turned[lane, on_slope] = math.degrees(estimates[lane, on_slope][1:, 1].sum())
@@ -289,7 +292,9 @@ def test_on_a_slope_the_near_floor_is_the_lane(wall_left):
         assert turned[0.0, True] < -3.0  # the wall's face in the whole near floor
     else:
         assert abs(turned[0.0, True]) < 0.5
-    np.testing.assert_array_equal(estimates[1.0, False], estimates[0.0, True])
+    np.testing.assert_array_equal(estimates[1.0, False], estimates[0.0, False])
+    if not near_floor:  # eq. G4's near floor solves the yaw again, so on a slope without the lane nothing changes
+        np.testing.assert_array_equal(estimates[1.0, False], estimates[0.0, True])
 
 
 def test_the_odometry_takes_the_lane_where_its_pitch_is_a_slope():

@@ -87,7 +87,9 @@ class VisualOdometryConfig:
             At 1 m (eq. G5's lane) the ramps' bias mostly goes (downhill +21 -> +7 degrees per 100 m in the median
             of 41 benchmark drives) and the SLAM ATE falls on 18 of them, but the building's rises 1.11 ->
             1.36 m, no longer half its odometry's, which CI asserts, and gen3:132 closes a loop falsely: off
-            until those are understood (docs/generalization.md, twenty-fourth step).
+            until those are understood (docs/generalization.md, twenty-fourth step). With ``slope_near_floor``
+            the lane bounds eq. G9's region as well (before the forty-fifth step it did nothing there, eq. G4
+            being skipped on slopes).
         slope_near_floor: for ``ground`` with ``transitions``, eq. G3's floor region is eq. G4's near floor while the
             pitch held is a slope (eq. G9 of :mod:`neuroslam.vision.ground_motion`; nothing where ``near_floor_row``
             is 0): a ramp's far floor reads its distance short (a hand-written car park's ramps 0.882 of their

@@ -94,10 +94,11 @@ same pixels, is skipped),
 
     Q = { q in eq. G4's near floor }     on a slope                                          (G9)
 
-and the whole floor elsewhere. (The odometry's default since the forty-fourth step. Where the near floor of a
-faint ramp sees too little of the distance, the odometry holds the speed, and it holds it right only with eq.
-R12 and without the ceiling over the ramp, ``odometry.held_direction`` and ``odometry.ceiling_on_slopes``: eq.
-G9 alone made two catastrophes on ten unseen generated worlds, the forty-third step.)
+(within eq. G7's lane where ``slope_half_width`` is set) and the whole floor elsewhere. (The odometry's default
+since the forty-fourth step. Where the near floor of a faint ramp sees too little of the distance, the odometry
+holds the speed, and it holds it right only with eq. R12 and without the ceiling over the ramp,
+``odometry.held_direction`` and ``odometry.ceiling_on_slopes``: eq. G9 alone made two catastrophes on ten unseen
+generated worlds, the forty-third step.)
 
 Whether the floor sees the distance at all is decided by its information on it (``min_information``). An
 edge that runs along the path (a wall's foot, a ramp's side, a line along the lane) carries none: a forward
@@ -213,7 +214,8 @@ class GroundMotion:
         slope_near_floor: eq. G3's floor region is eq. G4's near floor (below ``near_row``) while :attr:`on_slope`
             is set (eq. G9); needs ``near_row``.
         slope_half_width: eq. G4's near floor's half width beside the path while :attr:`on_slope` is set, m (eq.
-            G7); 0 (the default) keeps the whole near floor on slopes too. Only for the floor.
+            G7), and so eq. G9's region's with ``slope_near_floor``; 0 (the default) keeps the whole near floor on
+            slopes too. Only for the floor.
         aperture: rad; a pixel counts towards the information on the distance (eq. G6, what
             ``min_information`` is compared with) only where its image gradient lies more than this from
             perpendicular to the image motion a forward step gives it. 0 (this class's default) counts every
@@ -351,8 +353,8 @@ class GroundMotion:
         """Per image size: focal length, centre, the floor pixels' flat indices and their ground points q
         (with ``near_only``, those of eq. G4's near floor alone, within eq. G7's lane on a slope; with ``whole``,
         beyond eq. G5's lane too)."""
-        slope_lane = self.slope_half_width if near_only and self.on_slope else 0.0
         near_floor = near_only or (self.slope_near_floor and self.on_slope and not whole)  # eqs. G4 and G9
+        slope_lane = self.slope_half_width if near_floor and self.on_slope else 0.0
         cached = self._geometry.get((shape, near_only, whole, slope_lane, near_floor))
         if cached is not None:
             return cached

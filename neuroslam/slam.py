@@ -329,7 +329,8 @@ class NeuroSLAM(SessionsMixin, StateMixin):
             climb_error=config.confirmation_climb_error,
             odometers=self.experience_map.odometers if config.confirmation_laid_apart else None,
             sessions=self.experience_map.sessions,
-            rival_spread=config.confirmation_rival_spread * config.confirmation_tolerance, along_path=along_path)
+            rival_spread=config.confirmation_rival_spread * config.confirmation_tolerance, along_path=along_path,
+            local_reach=config.confirmation_local_reach and not along_path, drift=config.confirmation_drift)
 
     def _is_old(self, experience: int, time: float) -> bool:
         """One experience's entry of :meth:`_old` (without computing the others)."""

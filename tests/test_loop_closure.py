@@ -46,6 +46,14 @@ def _revisit(themap, frames, *, drift_yaw=0.5, drift=(7.0, -3.0, 1.0)):
     return odometry, templates
 
 
+def _straight_revisit():
+    """A straight corridor east (60 experiences, 30 m) driven again for 30 frames: the map, the revisit's odometry
+    and views, the window of its last 20 frames, the current view and every experience eligible."""
+    themap = _Map(_path(60, turn_at=100))
+    odometry, templates = _revisit(themap, 30)
+    return themap, odometry, templates, slice(10, 30), int(templates[29]), np.ones(len(themap.poses), dtype=bool)
+
+
 def _confirm(themap, odometry, templates, *, robot=None, radius=100.0, matches=14, eligible=None):
     robot = themap.poses[len(odometry) - 1] if robot is None else robot
     eligible = np.ones(len(themap.poses), dtype=bool) if eligible is None else eligible
@@ -230,11 +238,7 @@ def test_a_merge_judges_a_views_spread_near_each_hypothesis():
     in the reverse order there, is evidence for the place whose layout the window fits (judged over the whole
     map it was none, and nothing was confirmed); a corridor whose look repeats every 2.5 m is still no evidence
     (the repeats lie within the hypothesis's reach of 2 m plus the drift's 0.1 m per metre of the window)."""
-    themap = _Map(_path(60, turn_at=100))  # straight east
-    odometry, templates = _revisit(themap, 30)
-    window = slice(10, 30)
-    current = int(templates[29])
-    eligible = np.ones(len(themap.poses), dtype=bool)
+    themap, odometry, templates, window, current, eligible = _straight_revisit()
 
     def reversed_far(template):
         own = themap.experiences_of(template)
@@ -345,11 +349,7 @@ def test_a_view_repeated_8_m_on_voids_a_grown_radius_but_not_the_local_reach():
     near where the hypothesis maps each frame (``local_reach``, as a merge does), the repeats 8 m away do not
     void a view, and the place is confirmed at either radius. A corridor whose every view repeats stays
     ambiguous: the look-alike place 8 m on is then a confirmed rival."""
-    themap = _Map(_path(60, turn_at=100))  # straight east, 30 m
-    odometry, templates = _revisit(themap, 30)
-    window = slice(10, 30)
-    current = int(templates[29])
-    eligible = np.ones(len(themap.poses), dtype=bool)
+    themap, odometry, templates, window, current, eligible = _straight_revisit()
 
     def half_repeated(template):
         own = themap.experiences_of(template)

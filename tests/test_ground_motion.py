@@ -277,7 +277,8 @@ def test_on_a_slope_the_near_floor_is_the_lane(wall_left, near_floor):
     within 1 m of the path -0.36. With the wall 1.3 m away it does not reach the near floor and the two read alike
     (-0.30, -0.36). Off a slope ``slope_half_width`` changes nothing (the estimates are identical). With eq. G9
     (``near_floor``: eq. G3 itself reads the near floor on a slope) the lane bounds that region too: -5.6 degrees
-    without it beside the 1.1 m wall, -0.36 with it (the lane did nothing there before the forty-fifth step)."""
+    without it beside the 1.1 m wall, -0.36 with it (the lane did nothing there before 8835008, the forty-sixth
+    step)."""
     floor, wall = floor_texture(4), striped_wall()
     images = [render_beside_wall(floor, wall, 0.1 * k, wall_left=wall_left) for k in range(101)]
     turned, estimates = {}, {}

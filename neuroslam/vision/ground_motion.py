@@ -81,8 +81,9 @@ slope),
 
     Q_near = { q in eq. G4's near floor : |y| <= slope_half_width }     on a slope               (G7)
 
-and the whole near floor elsewhere. (On the floors the whole near floor reads straighter: the lane there turned
-the building's flat straights -10.6 -> -32.8 degrees over 455 m, docs/generalization.md.)
+and the whole near floor elsewhere (the odometry's default since the forty-seventh step, at 1 m). (On the floors
+the whole near floor reads straighter: the lane there turned the building's flat straights -10.6 -> -32.8 degrees
+over 455 m, docs/generalization.md.)
 
 A ramp's far floor reads its distance short. Eq. G3 alone over a hand-written car park's recorded ramps reads
 them 0.882 of their length, 0.995 on eq. G4's near floor alone; over a generated world's (gen3:103) 0.964

@@ -16,7 +16,7 @@ import numpy as np
 
 from .geometry import compose
 
-__all__ = ["confirm_place"]
+__all__ = ["confirm_place", "rival_shift_support"]
 
 
 def confirm_place(
@@ -40,6 +40,7 @@ def confirm_place(
     sessions: np.ndarray | None = None,
     rival_spread: float | None = None,
     along_path: bool = False,
+    rival_shifts: bool = False,
 ) -> int:
     """The old experience the last frames confirm the robot is at, or -1.
 
@@ -113,6 +114,14 @@ def confirm_place(
             one pass laid apart does not apply (they are the stretch the place may lie anywhere along).
             The winner's place then says where the robot is across the path and which way it faces, not where
             along it (:meth:`~neuroslam.experience_map.ExperienceMap.update`'s ``along_path``).
+        rival_shifts: the rival test over every place the window explains, not only the current view's places
+            (:func:`rival_shift_support`): the winner is not confirmed where the window's own views put
+            ``matches`` frames where a copy of the winner shifted by more than the rival spread maps them (a
+            look-alike one period on along a street whose look repeats, whose place the current view's template
+            does not hold). A shifted copy is a rival where it lies within the search radius (and its margin)
+            of the robot's estimate, or no farther from the winner than the winner from the estimate (and the
+            margin): accepting the winner says the estimate was that far off, so a copy as far from it is as
+            plausible a correction. Not with ``along_path``.
     """
     window_poses = np.asarray(window_poses, dtype=float)
     if len(window_poses) < matches:
@@ -186,4 +195,79 @@ def confirm_place(
             apart = np.where(sessions[rivals] == sessions[winner], apart, 0.0)
         if ((apart > distinct) & (apart <= travel)).any():
             return -1
+    if rival_shifts:
+        reach = np.array([radius + margin, height_radius + margin])
+        correction = map_poses[winner, :3] - np.asarray(robot[:3], dtype=float)
+        shift_reach = np.array([math.hypot(*correction[:2]) + margin, abs(correction[2]) + margin])
+        if rival_shift_support(window_poses, window_templates, window_alternatives, frames[best], map_poses,
+                               experiences_of, eligible, robot, reach=reach, shift_reach=shift_reach,
+                               tolerance=tolerance, climb_error=climb_error, distinct=distinct) >= matches:
+            return -1
     return int(winner)
+
+
+def rival_shift_support(
+    window_poses: np.ndarray,
+    window_templates: np.ndarray,
+    window_alternatives: Sequence[Sequence[int]],
+    frame: np.ndarray,
+    map_poses: np.ndarray,
+    experiences_of: Callable[[int], np.ndarray],
+    eligible: np.ndarray,
+    robot: np.ndarray,
+    *,
+    reach: np.ndarray,
+    tolerance: float,
+    climb_error: float,
+    distinct: float,
+    shift_reach: np.ndarray | None = None,
+) -> int:
+    """The most window frames that agree with one shifted copy of a hypothesis (frames; 0 if none).
+
+    ``frame`` (x, y, z, yaw; m, rad) is where a hypothesis puts the current frame's odometry pose in the map;
+    each window frame is mapped by it as in :func:`confirm_place`. A copy of the hypothesis shifted by a vector
+    ``c`` (its mapping of every frame moved by ``c``) is a rival when ``c`` is longer than ``distinct`` and the
+    shifted place lies within ``reach`` (horizontal, vertical; m) of the ``robot``'s estimate, or ``c`` itself is
+    within ``shift_reach`` (horizontal, vertical; m; None: no such allowance). The shifts tried
+    are those from where the hypothesis maps a frame to its view's eligible places (and its alternatives'); a
+    frame agrees with the copy shifted by ``c`` when one of its places lies within ``tolerance`` of its shifted
+    mapping horizontally and ``tolerance`` plus ``climb_error`` per metre of its distance from the current frame
+    vertically, as a frame agrees with a hypothesis. The view rule's "no evidence" does not apply here: a view
+    seen along many metres explains a shifted place as well as the hypothesis's.
+
+    This is the rival test over every place the window explains as well, not only the places of the current
+    view: along a street whose look repeats every few metres, the window fits the place one period on as well
+    as the one it confirms, though the current view's template may not hold that place.
+    """
+    now = np.asarray(window_poses[-1], dtype=float)
+    shifts, owners, heights = [], [], []
+    for index, (pose, template, alternatives) in enumerate(zip(window_poses, window_templates, window_alternatives,
+                                                                   strict=True)):
+        places = experiences_of(int(template))
+        if len(alternatives):
+            places = np.unique(np.concatenate([places, *(experiences_of(int(other)) for other in alternatives)]))
+        places = places[eligible[places]]
+        if len(places) == 0:
+            continue
+        dx, dy, dz = np.asarray(pose[:3], dtype=float) - now[:3]
+        mapped = compose(frame[None], np.array([dx, dy, dz, 0.0]))[0, :3]
+        shifts.append(map_poses[places, :3] - mapped)
+        owners.append(np.full(len(places), index))
+        heights.append(np.full(len(places), tolerance + climb_error * math.hypot(dx, dy)))
+    if not shifts:
+        return 0
+    vectors, owner, height_tolerance = np.concatenate(shifts), np.concatenate(owners), np.concatenate(heights)
+    shifted = frame[:3] + vectors  # where the shifted copy puts the current frame
+    possible = ((np.linalg.norm(shifted[:, :2] - robot[:2], axis=1) <= reach[0])
+                & (np.abs(shifted[:, 2] - robot[2]) <= reach[1]))
+    if shift_reach is not None:  # no farther from the hypothesis than it lies from the estimate
+        possible |= ((np.linalg.norm(vectors[:, :2], axis=1) <= shift_reach[0])
+                     & (np.abs(vectors[:, 2]) <= shift_reach[1]))
+    candidate = (np.linalg.norm(vectors, axis=1) > distinct) & possible
+    if not candidate.any():
+        return 0
+    tried = vectors[candidate]
+    agree = ((np.linalg.norm(tried[:, None, :2] - vectors[None, :, :2], axis=2) <= tolerance)
+             & (np.abs(tried[:, None, 2] - vectors[None, :, 2]) <= height_tolerance[None]))
+    starts = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])  # owners are in window order
+    return int(np.logical_or.reduceat(agree, starts, axis=1).sum(axis=1).max())

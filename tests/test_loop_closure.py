@@ -370,10 +370,89 @@ def test_a_view_repeated_8_m_on_voids_a_grown_radius_but_not_the_local_reach():
     assert confirm(all_repeated, 10.0, local_reach=True, drift=0.1) == -1
 
 
+def test_a_look_alike_one_period_on_is_a_rival_though_the_current_view_was_not_seen_there():
+    """Every view of the corridor but the current one was also seen 8 m further on (a street whose look repeats
+    every 8 m; the current frame's view happened to be a new template there). The look-alike place is then no
+    hypothesis, and judged near where the winner maps each frame (``local_reach``) the window confirms the
+    winner, though it fits the place 8 m on as well: 19 of 20 frames agree with either (urban's first false
+    closure with ``local_reach``, docs/generalization.md, the forty-seventh step). With ``rival_shifts`` the copy
+    of the winner shifted by 8 m is a rival with 19 agreeing frames, and nothing is confirmed. Where only half
+    the views repeat (10 frames agree with the shifted copy, fewer than ``matches``) the place is still
+    confirmed, and so is the plain revisit."""
+    themap, odometry, templates, window, current, eligible = _straight_revisit()
+
+    def repeated_but_current(template):
+        own = themap.experiences_of(template)
+        return own if template == current else np.concatenate([own, own + 16])  # 16 × 0.5 m on
+
+    def half_repeated(template):
+        own = themap.experiences_of(template)
+        return own if template == current or template % 2 else np.concatenate([own, own + 16])
+
+    def confirm(experiences_of, **options):
+        return confirm_place(odometry[window], templates[window], 0.0, themap.poses, experiences_of, eligible,
+                             themap.poses[29], radius=10.0, tolerance=1.0, matches=16, local_reach=True,
+                             drift=0.1, rival_spread=1.0, **options)
+
+    assert confirm(repeated_but_current) in (28, 29)
+    assert confirm(repeated_but_current, rival_shifts=True) == -1
+    assert confirm(half_repeated, rival_shifts=True) in (28, 29)
+    assert confirm(themap.experiences_of, rival_shifts=True) in (28, 29)
+    # beyond the search radius (and its margin of 2 tolerances) a shifted copy is no rival
+    assert confirm_place(odometry[window], templates[window], 0.0, themap.poses, repeated_but_current, eligible,
+                         themap.poses[29], radius=5.0, tolerance=1.0, matches=16, local_reach=True, drift=0.1,
+                         rival_spread=1.0, rival_shifts=True) in (28, 29)
+
+
+def test_a_look_alike_no_farther_from_the_winner_than_the_correction_is_a_rival():
+    """The robot's estimate lies 9 m short of the place it re-enters, at the edge of a 10 m search radius: the
+    look-alike 8 m on lies 17 m from the estimate, beyond the radius and its margin (12 m), yet no farther from
+    the winner than the winner from the estimate (9 m, plus the margin). Accepting the winner means the estimate
+    was 9 m off; a copy 8 m from it is as plausible a correction, so it is a rival and nothing is confirmed
+    (gen3:116's false closure with ``local_reach``, 5 m off, the winner 16.4 m from the estimate under a 16.6 m
+    radius: the forty-seventh step). With the estimate on the place and a 5 m radius, the same copy is no rival."""
+    themap, odometry, templates, window, current, eligible = _straight_revisit()
+
+    def repeated_but_current(template):
+        own = themap.experiences_of(template)
+        return own if template == current else np.concatenate([own, own + 16])  # 16 × 0.5 m on
+
+    def confirm(robot):
+        return confirm_place(odometry[window], templates[window], 0.0, themap.poses, repeated_but_current,
+                             eligible, robot, radius=10.0, tolerance=1.0, matches=16, local_reach=True, drift=0.1,
+                             rival_spread=1.0, rival_shifts=True)
+
+    short = themap.poses[29] - np.array([9.0, 0.0, 0.0, 0.0])
+    assert confirm(short) == -1
+    assert confirm_place(odometry[window], templates[window], 0.0, themap.poses, repeated_but_current, eligible,
+                         themap.poses[29], radius=5.0, tolerance=1.0, matches=16, local_reach=True, drift=0.1,
+                         rival_spread=1.0, rival_shifts=True) in (28, 29)
+
+
+def test_rival_shift_support_counts_frames_not_places():
+    """Each window frame counts once for a shifted copy, however many of its places agree with it."""
+    from neuroslam.loop_closure import rival_shift_support
+
+    themap, odometry, templates, window, _current, eligible = _straight_revisit()
+
+    def repeated_twice(template):  # every view also 8 m and 8.5 m on: two places per frame near the shifted copy
+        own = themap.experiences_of(template)
+        return np.concatenate([own, own + 16, own + 17])
+
+    frame = np.r_[themap.poses[29, :3], themap.poses[29, 3] - odometry[29, 3]]
+    support = rival_shift_support(odometry[window], templates[window], [()] * 20, frame, themap.poses,
+                                  repeated_twice, eligible, themap.poses[29], reach=np.array([12.0, 12.0]),
+                                  tolerance=1.0, climb_error=0.0, distinct=1.0)
+    assert support == 20
+    assert rival_shift_support(odometry[window], templates[window], [()] * 20, frame, themap.poses,
+                               themap.experiences_of, eligible, themap.poses[29], reach=np.array([12.0, 12.0]),
+                               tolerance=1.0, climb_error=0.0, distinct=1.0) == 0
+
+
 @pytest.mark.parametrize("local_reach", [False, True])
 def test_the_slam_passes_its_local_reach_setting_to_the_confirmation(monkeypatch, local_reach):
-    """``experience_map.confirmation_local_reach`` reaches :func:`confirm_place` (with the drift that widens each
-    frame's reach) for a loop closure; eq. M8's test keeps its own rule."""
+    """``experience_map.confirmation_local_reach`` and ``confirmation_rival_shifts`` reach :func:`confirm_place`
+    (with the drift that widens each frame's reach) for a loop closure; eq. M8's test keeps its own rule."""
     import dataclasses
 
     import neuroslam.slam as slam_module
@@ -381,7 +460,7 @@ def test_the_slam_passes_its_local_reach_setting_to_the_confirmation(monkeypatch
 
     config = presets.get("sim")
     config = dataclasses.replace(config, experience_map=dataclasses.replace(
-        config.experience_map, confirmation_local_reach=local_reach))
+        config.experience_map, confirmation_local_reach=local_reach, confirmation_rival_shifts=local_reach))
     calls = []
     monkeypatch.setattr(slam_module, "confirm_place", lambda *args, **kwargs: calls.append(kwargs) or -1)
     slam = NeuroSLAM(config)
@@ -389,6 +468,7 @@ def test_the_slam_passes_its_local_reach_setting_to_the_confirmation(monkeypatch
     for along_path in (False, True):
         slam._confirm(poses, views, [()] * 20, 0.0, np.zeros(0, dtype=bool), np.zeros(4), 0.0, along_path=along_path)
     assert [call["local_reach"] for call in calls] == [local_reach, False]
+    assert [call["rival_shifts"] for call in calls] == [local_reach, False]
     assert calls[0]["drift"] == config.experience_map.confirmation_drift
 
 
@@ -398,3 +478,5 @@ def test_the_local_reach_setting_is_checked():
 
     with pytest.raises(InvalidParameterError, match="confirmation_local_reach"):
         ExperienceMapConfig(confirmation_local_reach=1).validate()
+    with pytest.raises(InvalidParameterError, match="confirmation_rival_shifts"):
+        ExperienceMapConfig(confirmation_rival_shifts="yes").validate()

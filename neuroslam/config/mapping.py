@@ -106,6 +106,14 @@ class ExperienceMapConfig:
             what keeps look-alikes metres apart from confirming each other: with the option urban's repeated
             facades close 9 loops falsely and gen3:217 3 (docs/generalization.md, the forty-fifth step; the
             fourteenth step's "each hypothesis's own places" was the same rule).
+        confirmation_rival_shifts: the rival test over every place the window explains, not only the current
+            view's places (:func:`~neuroslam.loop_closure.rival_shift_support`): a place is not confirmed where a
+            copy of it shifted by more than the rival spread has as many window frames agreeing, the copy within
+            the search radius of the estimate or no farther from the place than the place from the estimate.
+            Urban's first false closure with ``confirmation_local_reach`` (11.9 m off, a straight window under a
+            33 m radius) had a copy 3.8 m on with its full 16 frames, its 1,362 true closures one with 6 at most;
+            gen3:116's (5 m off, the place 16.4 m from the estimate) a copy 5 m on with 20 (the forty-seventh
+            step). False: off.
         confirmation_tolerance: m, how far a frame's matched experience may lie from where the
             hypothesis puts it. confirmation_age: s, experiences younger than this are not a revisit.
         confirmation_drift: m per m driven since the last loop closure: a hypothesis must lie within
@@ -182,6 +190,7 @@ class ExperienceMapConfig:
     confirmation_rival_spread: float = 1.0
     confirmation_along_path: bool = False
     confirmation_local_reach: bool = False
+    confirmation_rival_shifts: bool = False
     confirmation_tolerance: float = 1.0
     confirmation_age: float = 30.0
     confirmation_drift: float = 0.1
@@ -228,6 +237,8 @@ class ExperienceMapConfig:
                 isinstance(self.confirmation_along_path, bool), "must be true or false")
         require(f"{path}.confirmation_local_reach", self.confirmation_local_reach,
                 isinstance(self.confirmation_local_reach, bool), "must be true or false")
+        require(f"{path}.confirmation_rival_shifts", self.confirmation_rival_shifts,
+                isinstance(self.confirmation_rival_shifts, bool), "must be true or false")
         views = self.confirmation_views
         require(f"{path}.confirmation_views", views,
                  isinstance(views, int) and not isinstance(views, bool) and 1 <= views <= 100,

@@ -41,6 +41,7 @@ def confirm_place(
     rival_spread: float | None = None,
     along_path: bool = False,
     rival_shifts: bool = False,
+    heading: float | None = None,
 ) -> int:
     """The old experience the last frames confirm the robot is at, or -1.
 
@@ -122,6 +123,9 @@ def confirm_place(
             of the robot's estimate, or no farther from the winner than the winner from the estimate (and the
             margin): accepting the winner says the estimate was that far off, so a copy as far from it is as
             plausible a correction. Not with ``along_path``.
+        heading: rad, the robot's heading in the map, or None. Given, every hypothesis faces it (maps the window
+            by the odometry's heading) instead of its place's yaw plus ``relative_yaw``: for a view whose match
+            does not pin its yaw (:class:`~neuroslam.slam.NeuroSLAM`'s ``confirmation_pinned_yaw``).
     """
     window_poses = np.asarray(window_poses, dtype=float)
     if len(window_poses) < matches:
@@ -139,7 +143,8 @@ def confirm_place(
     if not within.any():
         return -1
     # per hypothesis, the odometry's frame in the map: the hypothesis's place, turned by the view's relative yaw
-    frames = np.column_stack([map_poses[hypotheses, :3], map_poses[hypotheses, 3] + relative_yaw - now[3]])
+    yaws = map_poses[hypotheses, 3] + relative_yaw if heading is None else np.full(len(hypotheses), heading)
+    frames = np.column_stack([map_poses[hypotheses, :3], yaws - now[3]])
     support = np.zeros(len(hypotheses), dtype=int)
     misfit = np.zeros(len(hypotheses))  # m, summed over the agreeing frames: the distance to the nearest agreeing place
     if window_alternatives is None:

@@ -228,11 +228,17 @@ class NeuroSLAM(SessionsMixin, StateMixin):
                 grid_code, direction_code = self._merge(place, view.relative_yaw, grid_code, direction_code)
                 merged = True
         along_path = -1
+        # eq. M6's rule: the view's yaw relative to its template counts where its match pins the column shift
+        pinned = view.new or view.difference < self.local_view.column_contrasts[view.template_id] / 2
         if self.config.experience_map.loop_closure == "confirmed" and not merged:
-            place = -1 if refused else self._confirmed_place(view.relative_yaw, float(timestamp))
+            # with confirmation_pinned_yaw, a view that does not pin its yaw leaves the heading to the odometry
+            keep_heading = self.config.experience_map.confirmation_pinned_yaw and not pinned
+            place = -1 if refused else self._confirmed_place(view.relative_yaw, float(timestamp),
+                                                             keep_heading=keep_heading)
             may_close_loop = place >= 0
             if may_close_loop:
-                grid_code, direction_code = self._relocate(place, view.relative_yaw, grid_code, direction_code)
+                grid_code, direction_code = self._relocate(place, view.relative_yaw, grid_code, direction_code,
+                                                           keep_heading=keep_heading)
             elif (not refused and self.config.experience_map.confirmation_along_path
                   and view.difference < self.local_view.column_contrasts[view.template_id] / 2):
                 # eq. M8, where the view's match pins its yaw (as eq. M6's below): the link holds the yaw
@@ -240,7 +246,6 @@ class NeuroSLAM(SessionsMixin, StateMixin):
 
         floor_lines = self._floor_lines(image_grey, visual=odometry is None)
         # eq. M6: the view's yaw relative to its template, where its match pins the column shift (NaN where not)
-        pinned = view.new or view.difference < self.local_view.column_contrasts[view.template_id] / 2
         view_yaw = view.relative_yaw if pinned else math.nan
         update = themap.update(view.template_id, grid_code, direction_code, float(timestamp),
                                may_close_loop=may_close_loop, place=-1 if merged else place,  # the confirmed place
@@ -301,21 +306,27 @@ class NeuroSLAM(SessionsMixin, StateMixin):
         return moved >= config.confirmation_spacing or (
             0 < config.confirmation_turn <= turned and moved <= SPOT_RADIUS * turned)
 
-    def _confirmed_place(self, relative_yaw: float, time: float, *, along_path: bool = False) -> int:
+    def _confirmed_place(self, relative_yaw: float, time: float, *, along_path: bool = False,
+                         keep_heading: bool = False) -> int:
         """The old experience the last frames confirm (:func:`~neuroslam.loop_closure.confirm_place`), or -1.
 
         Old: made more than ``confirmation_age`` ago. The search radius grows with the distance driven
         since the robot was last on an old experience (``confirmation_drift`` per metre, and
-        ``confirmation_climb_error`` per metre for heights). With ``along_path``, eq. M8's test instead.
+        ``confirmation_climb_error`` per metre for heights). With ``along_path``, eq. M8's test instead. With
+        ``keep_heading``, every hypothesis faces the robot's heading in the map, not its place's yaw turned by the
+        view's ``relative_yaw`` (a view whose match does not pin its yaw).
         """
         themap = self.experience_map
         eligible = self._old(time) & (themap.components == themap.component)
+        robot = themap.robot_pose()
         return self._confirm(np.array([entry[0] for entry in self._recent]),
                              np.array([entry[1] for entry in self._recent]), [entry[2] for entry in self._recent],
-                             relative_yaw, eligible, themap.robot_pose(), self._since_closure, along_path=along_path)
+                             relative_yaw, eligible, robot, self._since_closure, along_path=along_path,
+                             heading=float(robot[3]) if keep_heading else None)
 
     def _confirm(self, poses: np.ndarray, templates: np.ndarray, alternatives: list, relative_yaw: float,
-                 eligible: np.ndarray, robot: np.ndarray, since: float, *, along_path: bool = False) -> int:
+                 eligible: np.ndarray, robot: np.ndarray, since: float, *, along_path: bool = False,
+                 heading: float | None = None) -> int:
         """:func:`~neuroslam.loop_closure.confirm_place` over a window (odometry poses, views and their other
         matching templates, the newest last) with this configuration's tolerances, the search radius grown by
         ``since`` metres driven without a loop closure; the confirmed experience, or -1."""
@@ -331,7 +342,7 @@ class NeuroSLAM(SessionsMixin, StateMixin):
             sessions=self.experience_map.sessions,
             rival_spread=config.confirmation_rival_spread * config.confirmation_tolerance, along_path=along_path,
             local_reach=config.confirmation_local_reach and not along_path, drift=config.confirmation_drift,
-            rival_shifts=config.confirmation_rival_shifts and not along_path)
+            rival_shifts=config.confirmation_rival_shifts and not along_path, heading=heading)
 
     def _is_old(self, experience: int, time: float) -> bool:
         """One experience's entry of :meth:`_old` (without computing the others)."""
@@ -345,9 +356,10 @@ class NeuroSLAM(SessionsMixin, StateMixin):
         return ((themap.creation_times < time - self.config.experience_map.confirmation_age)
                 | (themap.sessions < themap.session))
 
-    def _relocate(self, place: int, relative_yaw: float, grid_code: np.ndarray, direction_code: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray]:
+    def _relocate(self, place: int, relative_yaw: float, grid_code: np.ndarray, direction_code: np.ndarray, *,
+                  keep_heading: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """Move both packets to a confirmed place's codes, unless NeuroSLAM eq. 22 already matches it there.
+        With ``keep_heading`` the head-direction packet keeps its yaw (the odometry's) and moves in height only.
 
         The packets are shifted whole (the same exact shift as path integration, NeuroSLAM eqs. 6–9 and 17–20),
         so they keep their resting shape. Returns the decoded codes afterwards.
@@ -355,7 +367,10 @@ class NeuroSLAM(SessionsMixin, StateMixin):
         themap = self.experience_map
         target_grid = themap.grid_codes[place]
         target_direction = themap.direction_codes[place].copy()
-        target_direction[0] += relative_yaw / self.head_direction.yaw_cell_size
+        if keep_heading:
+            target_direction[0] = direction_code[0]
+        else:
+            target_direction[0] += relative_yaw / self.head_direction.yaw_cell_size
         config = self.config.experience_map
         score = (config.grid_weight * self.grid_cells.distance(grid_code, target_grid)
                  + config.direction_weight * self.head_direction.distance(direction_code, target_direction))

@@ -480,3 +480,57 @@ def test_the_local_reach_setting_is_checked():
         ExperienceMapConfig(confirmation_local_reach=1).validate()
     with pytest.raises(InvalidParameterError, match="confirmation_rival_shifts"):
         ExperienceMapConfig(confirmation_rival_shifts="yes").validate()
+    with pytest.raises(InvalidParameterError, match="confirmation_pinned_yaw"):
+        ExperienceMapConfig(confirmation_pinned_yaw=0).validate()
+
+
+def test_a_given_heading_maps_the_window_instead_of_the_views_yaw():
+    """Round the corner, the window fixes the rotation: with the view's relative yaw 0.3 rad off, no hypothesis
+    maps the window onto the map and nothing is confirmed; given the robot's heading in the map instead (what the
+    odometry says, ``confirmation_pinned_yaw`` where the view's match does not pin its yaw), the place is."""
+    themap = _Map(_path(40, turn_at=25))
+    odometry, templates = _revisit(themap, 30)
+    window = slice(10, 30)
+    robot = themap.poses[29]
+
+    def confirm(relative_yaw, **options):
+        return confirm_place(odometry[window], templates[window], relative_yaw, themap.poses, themap.experiences_of,
+                             np.ones(len(themap.poses), dtype=bool), robot, radius=100.0, tolerance=1.0, matches=14,
+                             **options)
+
+    assert confirm(0.0) in (28, 29)
+    assert confirm(0.3) == -1
+    assert confirm(0.3, heading=float(robot[3])) in (28, 29)
+
+
+@pytest.mark.parametrize("keep_heading", [False, True])
+def test_the_slam_keeps_its_heading_where_the_view_does_not_pin_it(monkeypatch, keep_heading):
+    """``keep_heading`` (``confirmation_pinned_yaw`` with a view whose match does not pin its yaw) hands the
+    robot's heading in the map to :func:`confirm_place`, and a relocation then moves the head-direction packet in
+    height only: its yaw stays where the odometry put it instead of the place's yaw turned by the view's."""
+    import neuroslam.slam as slam_module
+    from neuroslam import NeuroSLAM
+
+    rng = np.random.default_rng(3)
+    slam = NeuroSLAM("sim")
+    for k in range(3):
+        slam.step(rng.integers(0, 255, (120, 160, 3), dtype=np.uint8), 0.1 * k)
+    calls = []
+    monkeypatch.setattr(slam_module, "confirm_place", lambda *args, **kwargs: calls.append(kwargs) or -1)
+    slam._confirmed_place(0.0, 100.0, keep_heading=keep_heading)
+    expected = float(slam.experience_map.robot_pose()[3]) if keep_heading else None
+    assert calls[-1]["heading"] == expected
+
+    slam.head_direction.network.step(np.array([9.0, 0.0]))  # the packets 9 yaw cells and 4 grid cells away
+    slam.grid_cells.network.step(np.array([4.0, 0.0, 0.0]))
+    grid_code, direction_code = slam.grid_cells.decode(), slam.head_direction.decode()
+    place_grid = slam.experience_map.grid_codes[0]
+    grid_size = np.asarray(slam.config.grid_cells.size, dtype=float)
+    assert np.abs((grid_code - place_grid + grid_size / 2) % grid_size - grid_size / 2).max() > 3.5
+    grid_moved, moved = slam._relocate(0, 0.5, grid_code, direction_code, keep_heading=keep_heading)
+    assert np.abs((grid_moved - place_grid + grid_size / 2) % grid_size - grid_size / 2).max() < 0.3  # relocated
+    size = slam.config.head_direction.size[0]
+    turned = slam.experience_map.direction_codes[0][0] + 0.5 / slam.head_direction.yaw_cell_size
+    target = direction_code[0] if keep_heading else turned
+    assert abs((moved[0] - target + size / 2) % size - size / 2) < 0.3
+    assert abs((direction_code[0] - turned + size / 2) % size - size / 2) > 5  # the two differ

@@ -239,8 +239,7 @@ class NeuroSLAM(SessionsMixin, StateMixin):
             if may_close_loop:
                 grid_code, direction_code = self._relocate(place, view.relative_yaw, grid_code, direction_code,
                                                            keep_heading=keep_heading)
-            elif (not refused and self.config.experience_map.confirmation_along_path
-                  and view.difference < self.local_view.column_contrasts[view.template_id] / 2):
+            elif not refused and self.config.experience_map.confirmation_along_path and pinned:
                 # eq. M8, where the view's match pins its yaw (as eq. M6's below): the link holds the yaw
                 along_path = self._confirmed_place(view.relative_yaw, float(timestamp), along_path=True)
 

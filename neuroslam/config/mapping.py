@@ -118,7 +118,7 @@ class ExperienceMapConfig:
             template only where the view's match pins that yaw (eq. M6's rule: its difference below half its
             template's column contrast); elsewhere the robot keeps the odometry's heading, and the hypotheses
             map the window by it. On gen1:2 with ``confirmation_local_reach`` the closures whose view did not
-            pin its yaw erred by up to 5.0° in heading, those that did by 2.2° at most (the forty-seventh step).
+            pin its yaw erred by up to 5.0° in heading, those that did by 2.2° at most (the forty-eighth step).
             False: off.
         confirmation_tolerance: m, how far a frame's matched experience may lie from where the
             hypothesis puts it. confirmation_age: s, experiences younger than this are not a revisit.

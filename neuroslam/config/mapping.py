@@ -102,10 +102,11 @@ class ExperienceMapConfig:
             the second lap's ground level matched lap one's views on 99 % of its frames for 130 m and confirmed
             nothing, 18–20 of 20 window frames agreeing but 7–17 of them voided by views repeated 6–11 m apart
             within the radius; with the option that replay closes the loop (SLAM ATE 2.15 -> 1.72 m), and the
-            twenty unseen seeds gain (every target 11 -> 12). False (the default): the radius-wide rule, which is
-            what keeps look-alikes metres apart from confirming each other: with the option urban's repeated
-            facades close 9 loops falsely and gen3:217 3 (docs/generalization.md, the forty-fifth step; the
-            fourteenth step's "each hypothesis's own places" was the same rule).
+            twenty unseen seeds gain (every target 11 -> 12). Alone it closes loops falsely (urban's repeated
+            facades 9, gen3:217 3: the radius-wide rule was what kept look-alikes metres apart from confirming
+            each other; docs/generalization.md, the forty-fifth step); with ``confirmation_rival_shifts`` and
+            ``confirmation_pinned_yaw`` it is the default (True; the forty-ninth step). False: the radius-wide
+            rule (the fourteenth step's "each hypothesis's own places" was the same rule).
         confirmation_rival_shifts: the rival test over every place the window explains, not only the current
             view's places (:func:`~neuroslam.loop_closure.rival_shift_support`): a place is not confirmed where a
             copy of it shifted by more than the rival spread has as many window frames agreeing, the copy within
@@ -113,13 +114,14 @@ class ExperienceMapConfig:
             Urban's first false closure with ``confirmation_local_reach`` (11.9 m off, a straight window under a
             33 m radius) had a copy 3.8 m on with its full 16 frames, its 1,362 true closures one with 6 at most;
             gen3:116's (5 m off, the place 16.4 m from the estimate) a copy 5 m on with 20 (the forty-seventh
-            step). False: off.
+            step). True (the default, from the forty-ninth step); False: the rival test over the current
+            view's places only.
         confirmation_pinned_yaw: a loop closure turns the robot onto its place by the view's yaw relative to its
             template only where the view's match pins that yaw (eq. M6's rule: its difference below half its
             template's column contrast); elsewhere the robot keeps the odometry's heading, and the hypotheses
             map the window by it. On gen1:2 with ``confirmation_local_reach`` the closures whose view did not
             pin its yaw erred by up to 5.0° in heading, those that did by 2.2° at most (the forty-eighth step).
-            False: off.
+            True (the default, from the forty-ninth step); False: every closure takes the view's yaw.
         confirmation_tolerance: m, how far a frame's matched experience may lie from where the
             hypothesis puts it. confirmation_age: s, experiences younger than this are not a revisit.
         confirmation_drift: m per m driven since the last loop closure: a hypothesis must lie within
@@ -195,9 +197,9 @@ class ExperienceMapConfig:
     confirmation_laid_apart: bool = True
     confirmation_rival_spread: float = 1.0
     confirmation_along_path: bool = False
-    confirmation_local_reach: bool = False
-    confirmation_rival_shifts: bool = False
-    confirmation_pinned_yaw: bool = False
+    confirmation_local_reach: bool = True
+    confirmation_rival_shifts: bool = True
+    confirmation_pinned_yaw: bool = True
     confirmation_tolerance: float = 1.0
     confirmation_age: float = 30.0
     confirmation_drift: float = 0.1

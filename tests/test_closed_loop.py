@@ -26,8 +26,8 @@ distance and yaw on less than a quarter of their frames, its ``BLIND_LIMIT``; th
 meet the targets yet, docs/generalization.md, so they cannot be asserted here). ``gen3:134`` (551 m): a blank
 ground floor and a large-tiled upper one, lane markings; ``gen3:114`` (497 m): a large-tiled ground floor
 (thin lines 2.5–4 m apart) and a low-contrast open top with a second deck over part of it, the land and the
-horizon in view, lane markings. On the benchmark and here: SLAM ATE 0.95 m (ratio 0.23) and 0.69 m (ratio
-0.35), 44–67 s a drive.
+horizon in view, lane markings. On the benchmark and here, today's defaults: SLAM ATE 0.75 m (ratio 0.21) and
+0.73 m (ratio 0.32), 44–67 s a drive.
 """
 
 import json

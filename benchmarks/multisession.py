@@ -1,8 +1,9 @@
 """Does a second session that starts on another level merge into the first one's map, and only truly?
 
 Run: ``python benchmarks/multisession.py --out runs/multisession [--worlds gen:100-104] [--laps 1]
-[--max-frames N]``. A measurement, not a test: it asserts nothing and is not part of the pytest run. About
-25 minutes here for the default five worlds.
+[--max-frames N] [--config FILE]``. A measurement, not a test: it asserts nothing and is not part of the pytest
+run. About 25 minutes here for the default five worlds; ``--config`` sets NeuroSLAM's settings over the preset in
+all three drives (``neuroslam drive --config``).
 
 What it does, per world (camera only, the default preset): a first session drives the ``main`` route
 (``--laps`` laps, from the ground floor) and saves its map; a second session drives the ``upper`` route (the
@@ -81,9 +82,12 @@ def merged_map_parts(second: Path, merge_frames: list[int]) -> dict:
             else None}
 
 
-def measure(world: str, out: Path, laps: int, max_frames: int | None) -> dict:
-    """The three drives of one world; one row of the table."""
+def measure(world: str, out: Path, laps: int, max_frames: int | None, config: Path | None = None) -> dict:
+    """The three drives of one world, each with the settings of ``config`` over the preset (None: the
+    preset's); one row of the table."""
     limit = ["--max-frames", str(max_frames)] if max_frames else []
+    if config is not None:
+        limit += ["--config", str(config)]
     first = _drive(out / "first", world, "--route", "main", "--laps", str(laps), *limit)
     second = _drive(out / "second", world, "--route", "upper", "--laps", str(laps), "--load-map", str(out / "first"),
                     *limit)
@@ -128,19 +132,25 @@ def main(argv: list[str] | None = None) -> int:
                         help="worlds with an 'upper' route (default: gen:100-104; gen:A-B ranges too)")
     parser.add_argument("--laps", type=int, default=1, help="laps per session (default: 1; the single drives twice)")
     parser.add_argument("--max-frames", type=int, help="stop every drive after this many frames (a smoke test)")
+    parser.add_argument("--config", type=Path,
+                        help="TOML or JSON file of NeuroSLAM settings over the preset, for all three drives "
+                             "(neuroslam drive --config)")
     args = parser.parse_args(argv)
     if args.laps < 1:
         parser.error(f"--laps {args.laps}: must be at least 1")
     if args.out.exists() and not args.out.is_dir():
         parser.error(f"--out {str(args.out)!r}: exists and is not a folder")
+    if args.config is not None and not args.config.is_file():
+        parser.error(f"--config {str(args.config)!r}: no such file")
     rows = []
     for world in expand_worlds(args.worlds):
         print(f"{world} ...", file=sys.stderr, flush=True)
-        rows.append(measure(world, args.out / world.replace(":", "_"), args.laps, args.max_frames))
+        rows.append(measure(world, args.out / world.replace(":", "_"), args.laps, args.max_frames, args.config))
     text = table(rows)
     (args.out / "multisession.md").write_text(text)
     summary = {"worlds": len(rows), "meet_the_target": sum(row["meets"] for row in rows), "rows": rows,
-               "laps": args.laps, "max_frames": args.max_frames}
+               "laps": args.laps, "max_frames": args.max_frames,
+               "config": None if args.config is None else args.config.read_text()}
     (args.out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     print(text, end="")
     print(f"{summary['meet_the_target']} of {len(rows)} worlds meet the target (a merge, none false, merged map "

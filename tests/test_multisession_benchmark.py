@@ -40,3 +40,28 @@ def test_the_experiences_made_before_the_merge_are_scored_apart(tmp_path):
     assert 0.3 < parts["before_merge_rmse_m"] < 1.0  # 1 m off, less what the whole map's alignment takes up
     assert multisession.merged_map_parts(second, []) == {"before_merge": 0, "before_merge_rmse_m": None,
                                                          "map_without_them_rmse_m": None}
+
+
+def test_the_config_reaches_all_three_drives(tmp_path, monkeypatch):
+    """``--config FILE`` goes to each of the three drives as ``neuroslam drive --config FILE``; a file that does
+    not exist is refused before any drive."""
+    import pytest
+
+    calls = []
+
+    def fake_drive(out, world, *arguments):
+        calls.append(arguments)
+        return {"merges": 1, "false_merges": 0, "map_components": 1, "map_rmse_m": 1.0, "merge_frames": [],
+                "ate_rmse_m": {"slam": 1.0}}
+
+    monkeypatch.setattr(multisession, "_drive", fake_drive)
+    monkeypatch.setattr(multisession, "merged_map_parts", lambda second, frames: {})
+    config = tmp_path / "settings.json"
+    config.write_text('{"experience_map": {"confirmation_pinned_yaw": false}}')
+    multisession.measure("gen:100", tmp_path / "gen_100", 1, None, config)
+    assert len(calls) == 3
+    assert all(arguments[-2:] == ("--config", str(config)) for arguments in calls)
+    with pytest.raises(SystemExit) as stopped:
+        multisession.main(["--out", str(tmp_path / "out"), "--config", str(tmp_path / "missing.json")])
+    assert stopped.value.code == 2
+    assert len(calls) == 3

@@ -2,8 +2,9 @@
 
 Run: ``python benchmarks/multisession.py --out runs/multisession [--worlds gen:100-104] [--laps 1]
 [--max-frames N] [--config FILE]``. A measurement, not a test: it asserts nothing and is not part of the pytest
-run. About 25 minutes here for the default five worlds; ``--config`` sets NeuroSLAM's settings over the preset in
-all three drives (``neuroslam drive --config``).
+run. About 25 minutes here for the default five worlds; ``--config`` sets NeuroSLAM's settings over the preset
+(``neuroslam drive --config``) in the first and the single session, and the second keeps them with the map it
+loads.
 
 What it does, per world (camera only, the default preset): a first session drives the ``main`` route
 (``--laps`` laps, from the ground floor) and saves its map; a second session drives the ``upper`` route (the
@@ -83,15 +84,15 @@ def merged_map_parts(second: Path, merge_frames: list[int]) -> dict:
 
 
 def measure(world: str, out: Path, laps: int, max_frames: int | None, config: Path | None = None) -> dict:
-    """The three drives of one world, each with the settings of ``config`` over the preset (None: the
-    preset's); one row of the table."""
+    """The three drives of one world, with the settings of ``config`` over the preset (None: the preset's) in
+    the first and the single session; the second keeps the configuration of the map it loads (the first's).
+    One row of the table."""
     limit = ["--max-frames", str(max_frames)] if max_frames else []
-    if config is not None:
-        limit += ["--config", str(config)]
-    first = _drive(out / "first", world, "--route", "main", "--laps", str(laps), *limit)
+    settings = ["--config", str(config)] if config is not None else []
+    first = _drive(out / "first", world, "--route", "main", "--laps", str(laps), *limit, *settings)
     second = _drive(out / "second", world, "--route", "upper", "--laps", str(laps), "--load-map", str(out / "first"),
                     *limit)
-    single = _drive(out / "single", world, "--route", "main", "--laps", str(2 * laps), *limit)
+    single = _drive(out / "single", world, "--route", "main", "--laps", str(2 * laps), *limit, *settings)
     merged, alone = second["map_rmse_m"], single["map_rmse_m"]
     ratio = merged / alone if merged is not None and alone else None
     return {
@@ -133,8 +134,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--laps", type=int, default=1, help="laps per session (default: 1; the single drives twice)")
     parser.add_argument("--max-frames", type=int, help="stop every drive after this many frames (a smoke test)")
     parser.add_argument("--config", type=Path,
-                        help="TOML or JSON file of NeuroSLAM settings over the preset, for all three drives "
-                             "(neuroslam drive --config)")
+                        help="TOML or JSON file of NeuroSLAM settings over the preset for the first and the "
+                             "single session (neuroslam drive --config); the second keeps its loaded map's")
     args = parser.parse_args(argv)
     if args.laps < 1:
         parser.error(f"--laps {args.laps}: must be at least 1")

@@ -42,8 +42,9 @@ def test_the_experiences_made_before_the_merge_are_scored_apart(tmp_path):
                                                          "map_without_them_rmse_m": None}
 
 
-def test_the_config_reaches_all_three_drives(tmp_path, monkeypatch):
-    """``--config FILE`` goes to each of the three drives as ``neuroslam drive --config FILE``; a file that does
+def test_the_config_reaches_the_first_and_the_single_session(tmp_path, monkeypatch):
+    """``--config FILE`` goes to the first and the single session as ``neuroslam drive --config FILE``; the second
+    loads the first's map, which keeps its configuration (``--load-map`` refuses ``--config``). A file that does
     not exist is refused before any drive."""
     import pytest
 
@@ -60,7 +61,9 @@ def test_the_config_reaches_all_three_drives(tmp_path, monkeypatch):
     config.write_text('{"experience_map": {"confirmation_pinned_yaw": false}}')
     multisession.measure("gen:100", tmp_path / "gen_100", 1, None, config)
     assert len(calls) == 3
-    assert all(arguments[-2:] == ("--config", str(config)) for arguments in calls)
+    first, second, single = calls
+    assert first[-2:] == single[-2:] == ("--config", str(config))
+    assert "--config" not in second and "--load-map" in second
     with pytest.raises(SystemExit) as stopped:
         multisession.main(["--out", str(tmp_path / "out"), "--config", str(tmp_path / "missing.json")])
     assert stopped.value.code == 2

@@ -4,6 +4,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from test_multisession import APPROACH, APPROACH_IN_FIRST_FRAME, drive, first_session, square
 
 from neuroslam import NeuroSLAM
@@ -46,8 +47,6 @@ def test_the_config_reaches_the_first_and_the_single_session(tmp_path, monkeypat
     """``--config FILE`` goes to the first and the single session as ``neuroslam drive --config FILE``; the second
     loads the first's map, which keeps its configuration (``--load-map`` refuses ``--config``). A file that does
     not exist is refused before any drive."""
-    import pytest
-
     calls = []
 
     def fake_drive(out, world, *arguments):

@@ -117,19 +117,12 @@ def confirm_place(
             along it (:meth:`~neuroslam.experience_map.ExperienceMap.update`'s ``along_path``).
         rival_shifts: the rival test over every place the window explains, not only the current view's places
             (:func:`rival_shift_support`): the winner is not confirmed where the window's own views put
-            ``matches`` frames where a copy of the winner shifted by more than the rival spread, and by more than
-            ``2 * tolerance``, maps them (a look-alike one period on along a street whose look repeats, whose
-            place the current view's template does not hold). A copy shifted by less is the same place at
-            the rule's precision: the view rule counts a view whose places spread over up to ``2 * tolerance``
-            as evidence of one place (a view the first pass laid again a metre or so on, while it held). A
-            shifted copy is a rival where it lies horizontally within the search radius of the robot's estimate
-            (where a hypothesis could win; in height within its margin too), or no farther from the winner than
-            the winner from the estimate: accepting the winner says the estimate was that far off, so a copy as
-            far from it is as plausible a correction. That second allowance is what a drifted estimate needs
-            (the right place farther than the radius says); the rivals' margin of ``2 * tolerance`` on top of it
-            would make every copy one period on a rival while the robot is tracked (a car park whose look repeats
-            every 2 m: a 1.3 m radius plus the margin reaches it), and no closure would hold the map there
-            (docs/generalization.md, the fifty-second step). Not with ``along_path``.
+            ``matches`` frames where a copy of the winner shifted by more than the rival spread maps them (a
+            look-alike one period on along a street whose look repeats, whose place the current view's template
+            does not hold). A shifted copy is a rival where it lies within the search radius (and its margin)
+            of the robot's estimate, or no farther from the winner than the winner from the estimate (and the
+            margin): accepting the winner says the estimate was that far off, so a copy as far from it is as
+            plausible a correction. Not with ``along_path``.
         heading: rad, the robot's heading in the map, or None. Given, every hypothesis faces it (maps the window
             by the odometry's heading) instead of its place's yaw plus ``relative_yaw``: for a view whose match
             does not pin its yaw (:class:`~neuroslam.slam.NeuroSLAM`'s ``confirmation_pinned_yaw``).
@@ -208,15 +201,12 @@ def confirm_place(
         if ((apart > distinct) & (apart <= travel)).any():
             return -1
     if rival_shifts:
-        # horizontally the hypotheses' own reach; the correction's allowance is what a drifted estimate needs
-        reach = np.array([radius, height_radius + margin])
+        reach = np.array([radius + margin, height_radius + margin])
         correction = map_poses[winner, :3] - np.asarray(robot[:3], dtype=float)
-        shift_reach = np.array([math.hypot(*correction[:2]), abs(correction[2]) + margin])
-        # a copy within 2 tolerances is the same place to the view rule (a view's places spread that far are one)
+        shift_reach = np.array([math.hypot(*correction[:2]) + margin, abs(correction[2]) + margin])
         if rival_shift_support(window_poses, window_templates, window_alternatives, frames[best], map_poses,
                                experiences_of, eligible, robot, reach=reach, shift_reach=shift_reach,
-                               tolerance=tolerance, climb_error=climb_error,
-                               distinct=max(distinct, 2 * tolerance)) >= matches:
+                               tolerance=tolerance, climb_error=climb_error, distinct=distinct) >= matches:
             return -1
     return int(winner)
 

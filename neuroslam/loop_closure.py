@@ -41,6 +41,7 @@ def confirm_place(
     rival_spread: float | None = None,
     along_path: bool = False,
     rival_shifts: bool = False,
+    rival_odds: float | None = None,
     heading: float | None = None,
 ) -> int:
     """The old experience the last frames confirm the robot is at, or -1.
@@ -123,6 +124,19 @@ def confirm_place(
             of the robot's estimate, or no farther from the winner than the winner from the estimate (and the
             margin): accepting the winner says the estimate was that far off, so a copy as far from it is as
             plausible a correction. Not with ``along_path``.
+        rival_odds: with ``rival_shifts``, weigh a shifted copy against the winner by where the robot's estimate
+            says it is, instead of the reach above: the estimate's error taken as Gaussian with the search radius
+            as its 2σ bound (σ = ``radius / 2`` horizontally), a copy is a rival where the winner is less than
+            ``rival_odds`` times as likely a place as it, ``d_copy² − d_winner² ≤ 2σ² ln(rival_odds)`` (their
+            horizontal distances from the estimate), and its height lies within the height reach. A look that
+            repeats every bay then does not refuse a well-localised robot its own place (the copies one bay on
+            lie far out in the estimate's tail), and refuses a robot that has driven long enough unrecognised
+            for a bay to lie within its error. And where the search radius is within ``2 * tolerance`` (σ within
+            one tolerance: the robot is on or near a place it recognised), a copy shifted by no more than
+            ``2 * tolerance`` is no rival: with places laid a metre apart and a view seen along two or three of
+            them, every window frame agrees with a copy one place on as well as with the winner, the same
+            evidence counted twice, and where the estimate itself is held that closely the better fit between
+            them errs by no more than the estimate could. None: the reach rule.
         heading: rad, the robot's heading in the map, or None. Given, every hypothesis faces it (maps the window
             by the odometry's heading) instead of its place's yaw plus ``relative_yaw``: for a view whose match
             does not pin its yaw (:class:`~neuroslam.slam.NeuroSLAM`'s ``confirmation_pinned_yaw``).
@@ -204,9 +218,12 @@ def confirm_place(
         reach = np.array([radius + margin, height_radius + margin])
         correction = map_poses[winner, :3] - np.asarray(robot[:3], dtype=float)
         shift_reach = np.array([math.hypot(*correction[:2]) + margin, abs(correction[2]) + margin])
+        # with rival_odds, near the last recognised place a copy one place on is the same evidence (see above)
+        shift_distinct = 2 * tolerance if rival_odds is not None and radius <= 2 * tolerance else distinct
         if rival_shift_support(window_poses, window_templates, window_alternatives, frames[best], map_poses,
                                experiences_of, eligible, robot, reach=reach, shift_reach=shift_reach,
-                               tolerance=tolerance, climb_error=climb_error, distinct=distinct) >= matches:
+                               tolerance=tolerance, climb_error=climb_error, distinct=shift_distinct,
+                               odds=rival_odds, sigma=radius / 2) >= matches:
             return -1
     return int(winner)
 
@@ -226,6 +243,8 @@ def rival_shift_support(
     climb_error: float,
     distinct: float,
     shift_reach: np.ndarray | None = None,
+    odds: float | None = None,
+    sigma: float = math.inf,
 ) -> int:
     """The most window frames that agree with one shifted copy of a hypothesis (frames; 0 if none).
 
@@ -233,7 +252,10 @@ def rival_shift_support(
     each window frame is mapped by it as in :func:`confirm_place`. A copy of the hypothesis shifted by a vector
     ``c`` (its mapping of every frame moved by ``c``) is a rival when ``c`` is longer than ``distinct`` and the
     shifted place lies within ``reach`` (horizontal, vertical; m) of the ``robot``'s estimate, or ``c`` itself is
-    within ``shift_reach`` (horizontal, vertical; m; None: no such allowance). The shifts tried
+    within ``shift_reach`` (horizontal, vertical; m; None: no such allowance). With ``odds``, horizontally a copy
+    is a rival instead where the hypothesis is less than ``odds`` times as likely a place under a Gaussian of
+    ``sigma`` (m) about the robot's estimate (its squared distance from the estimate at most the hypothesis's
+    plus ``2 sigma² ln odds``), and vertically within ``reach``. The shifts tried
     are those from where the hypothesis maps a frame to its view's eligible places (and its alternatives'); a
     frame agrees with the copy shifted by ``c`` when one of its places lies within ``tolerance`` of its shifted
     mapping horizontally and ``tolerance`` plus ``climb_error`` per metre of its distance from the current frame
@@ -263,9 +285,14 @@ def rival_shift_support(
         return 0
     vectors, owner, height_tolerance = np.concatenate(shifts), np.concatenate(owners), np.concatenate(heights)
     shifted = frame[:3] + vectors  # where the shifted copy puts the current frame
-    possible = ((np.linalg.norm(shifted[:, :2] - robot[:2], axis=1) <= reach[0])
-                & (np.abs(shifted[:, 2] - robot[2]) <= reach[1]))
-    if shift_reach is not None:  # no farther from the hypothesis than it lies from the estimate
+    if odds is not None:
+        winner = np.sum((frame[:2] - robot[:2]) ** 2)
+        plausible = np.sum((shifted[:, :2] - robot[:2]) ** 2, axis=1) - winner <= 2 * sigma**2 * math.log(odds)
+        possible = plausible & (np.abs(shifted[:, 2] - robot[2]) <= reach[1])
+    else:
+        possible = ((np.linalg.norm(shifted[:, :2] - robot[:2], axis=1) <= reach[0])
+                    & (np.abs(shifted[:, 2] - robot[2]) <= reach[1]))
+    if shift_reach is not None and odds is None:  # no farther from the hypothesis than it lies from the estimate
         possible |= ((np.linalg.norm(vectors[:, :2], axis=1) <= shift_reach[0])
                      & (np.abs(vectors[:, 2]) <= shift_reach[1]))
     candidate = (np.linalg.norm(vectors, axis=1) > distinct) & possible

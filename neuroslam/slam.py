@@ -341,7 +341,8 @@ class NeuroSLAM(SessionsMixin, StateMixin):
             sessions=self.experience_map.sessions,
             rival_spread=config.confirmation_rival_spread * config.confirmation_tolerance, along_path=along_path,
             local_reach=config.confirmation_local_reach and not along_path, drift=config.confirmation_drift,
-            rival_shifts=config.confirmation_rival_shifts and not along_path, heading=heading)
+            rival_shifts=config.confirmation_rival_shifts and not along_path,
+            rival_odds=config.confirmation_rival_odds or None, heading=heading)
 
     def _is_old(self, experience: int, time: float) -> bool:
         """One experience's entry of :meth:`_old` (without computing the others)."""

@@ -534,3 +534,54 @@ def test_the_slam_keeps_its_heading_where_the_view_does_not_pin_it(monkeypatch, 
     target = direction_code[0] if keep_heading else turned
     assert abs((moved[0] - target + size / 2) % size - size / 2) < 0.3
     assert abs((direction_code[0] - turned + size / 2) % size - size / 2) > 5  # the two differ
+
+
+@pytest.mark.parametrize("bay, radius, confirmed", [
+    (7, 1.9, True),    # a copy 3.5 m on, the robot near its last recognised place: far out in the estimate's tail
+    (7, 6.0, False),   # the same after 50 m unrecognised: the copy lies within the estimate's error
+    (3, 1.2, True),    # a copy 1.5 m on, within 2 tolerances, near the last recognised place: the same evidence
+    (3, 3.0, False),   # the same copy with a 3 m radius: a rival
+])
+def test_rival_odds_weigh_a_repeating_look_by_the_estimate(bay, radius, confirmed):
+    """Every view of the corridor but the current one was also seen ``bay`` experiences (0.5 m each) on, as in a
+    car park whose bays repeat. With ``rival_odds`` the shifted copy is weighed by the robot's estimate (the search
+    radius its 2σ bound): it refuses the place only where the place is less than 10 times as likely, and within two
+    tolerances only where the radius exceeds them. The reach rule (without ``rival_odds``) refuses every case: each
+    copy lies within the radius and its 2-tolerance margin."""
+    themap, odometry, templates, window, current, eligible = _straight_revisit()
+
+    def repeated_but_current(template):
+        own = themap.experiences_of(template)
+        return own if template == current else np.concatenate([own, own + bay])
+
+    def confirm(**options):
+        return confirm_place(odometry[window], templates[window], 0.0, themap.poses, repeated_but_current, eligible,
+                             themap.poses[29], radius=radius, tolerance=1.0, matches=16, local_reach=True,
+                             drift=0.1, rival_spread=1.0, rival_shifts=True, **options)
+
+    assert confirm() == -1
+    assert (confirm(rival_odds=10.0) in (28, 29)) == confirmed
+
+
+def test_rival_odds_reach_the_confirmation_and_are_checked(monkeypatch):
+    """``experience_map.confirmation_rival_odds`` reaches :func:`confirm_place` (0: off, None there), and a value
+    that is neither 0 nor above 1 is refused naming the field."""
+    import dataclasses
+
+    import neuroslam.slam as slam_module
+    from neuroslam import NeuroSLAM, presets
+    from neuroslam.config import Config
+    from neuroslam.errors import InvalidParameterError
+
+    config = presets.get("sim")
+    calls = []
+    monkeypatch.setattr(slam_module, "confirm_place", lambda *args, **kwargs: calls.append(kwargs) or -1)
+    for odds in (0.0, 10.0):
+        slam = NeuroSLAM(dataclasses.replace(config, experience_map=dataclasses.replace(
+            config.experience_map, confirmation_rival_odds=odds)))
+        slam._confirm(np.zeros((20, 4)), np.zeros(20, dtype=np.int64), [()] * 20, 0.0, np.zeros(0, dtype=bool),
+                      np.zeros(4), 0.0)
+    assert [call["rival_odds"] for call in calls] == [None, 10.0]
+    for bad in (0.5, 1.0, -2.0):
+        with pytest.raises(InvalidParameterError, match="confirmation_rival_odds"):
+            Config.from_dict({"experience_map": {"confirmation_rival_odds": bad}})

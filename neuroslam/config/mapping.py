@@ -116,6 +116,11 @@ class ExperienceMapConfig:
             gen3:116's (5 m off, the place 16.4 m from the estimate) a copy 5 m on with 20 (the forty-seventh
             step). True (the default, from the forty-ninth step); False: the rival test over the current
             view's places only.
+        confirmation_rival_odds: with ``confirmation_rival_shifts``, a shifted copy of a confirmed place is a rival
+            by how likely a place the robot's estimate makes it against the place, not by whether it lies within
+            reach (:func:`~neuroslam.loop_closure.confirm_place`'s ``rival_odds``): the search radius taken as the
+            estimate's 2σ bound, a copy refuses the place where the place is less than this many times as likely.
+            0 (the default): the reach rule.
         confirmation_pinned_yaw: a loop closure turns the robot onto its place by the view's yaw relative to its
             template only where the view's match pins that yaw (eq. M6's rule: its difference below half its
             template's column contrast); elsewhere the robot keeps the odometry's heading, and the hypotheses
@@ -200,6 +205,7 @@ class ExperienceMapConfig:
     confirmation_local_reach: bool = True
     confirmation_rival_shifts: bool = True
     confirmation_pinned_yaw: bool = True
+    confirmation_rival_odds: float = 0.0
     confirmation_tolerance: float = 1.0
     confirmation_age: float = 30.0
     confirmation_drift: float = 0.1
@@ -266,4 +272,8 @@ class ExperienceMapConfig:
                      confirmation_drift=self.confirmation_drift, confirmation_climb_error=self.confirmation_climb_error,
                      confirmation_spacing=self.confirmation_spacing, confirmation_turn=self.confirmation_turn)
         non_negative(path, blind_speed_error=self.blind_speed_error)
+        require(f"{path}.confirmation_rival_odds", self.confirmation_rival_odds,
+                number(self.confirmation_rival_odds) and (self.confirmation_rival_odds == 0
+                                                          or self.confirmation_rival_odds > 1),
+                "must be 0 (off) or above 1")
         positive(path, link_length_error=self.link_length_error)

@@ -8,7 +8,7 @@ Run::
 A measurement, not a test. ``record`` drives the benchmark's worlds (the same list, laps and seeds as
 ``benchmarks/generalization.py``: the three built-ins and ``gen3:100``–``gen3:139``, or ``--worlds``, or the
 hand-written MJCF worlds) with ``neuroslam record`` into ``DATA/NAME`` (frames, ground truth, the wheels; about
-100 MB a world, 4.5 GB for the 43; about 40 minutes with 2 workers). A world already recorded is skipped.
+90 MB a world, 4 GB for the 43; about 45 minutes with 2 workers). A world already recorded is skipped.
 
 ``score`` replays every dataset under ``DATA`` through the runner, as ``neuroslam run`` does, with the ``sim``
 preset and one ``--grid`` setting over it, camera only unless ``--odometry`` says otherwise, and scores each as
@@ -17,8 +17,8 @@ distribution and targets (:func:`generalization.distribution`). The scripted dri
 SLAM (the route steers the robot), so a replay is the drive: camera only, its numbers are the benchmark's to the
 last digit (the frames are lossless PNG); with the wheels to within centimetres (a recording keeps the wheels'
 pose, whose speed is the chord over a frame, within 0.1 % of the arc the encoders rolled). A replay leaves out
-the drive's rendering and physics and the sweep's plots: about 45 s a world instead of 2–3 minutes, the 43
-worlds in about 20 minutes with 2 workers. What it cannot measure is what changes the frames: the camera's
+the drive's rendering and physics and the sweep's plots: the 43 worlds in 35–45 minutes with 2 workers against
+about 75 for the drives (a few large maps take 5–9 minutes each and hold the tail). What it cannot measure is what changes the frames: the camera's
 settings, the generator, the route.
 """
 

@@ -16,10 +16,10 @@ the benchmark does: ``RUN/results.csv``, ``RUN/worlds.md`` and ``RUN/summary.jso
 distribution and targets (:func:`generalization.distribution`). The scripted drive does not depend on the
 SLAM (the route steers the robot), so a replay is the drive: camera only, its numbers are the benchmark's to the
 last digit (the frames are lossless PNG); with the wheels to within centimetres (a recording keeps the wheels'
-pose, whose speed is the chord over a frame, within 0.1 % of the arc the encoders rolled). A replay leaves out
-the drive's rendering and physics and the sweep's plots: the 43 worlds in 35–45 minutes with 2 workers against
-about 75 for the drives (a few large maps take 5–9 minutes each and hold the tail). What it cannot measure is what changes the frames: the camera's
-settings, the generator, the route.
+pose, whose speed is the chord over a frame, within 0.1 % of the arc the encoders rolled). A replay leaves out the
+drive's rendering and physics and the sweep's plots: the 43 worlds in 35–45 minutes with 2 workers against about 75
+for the drives (a few large maps take 5–9 minutes each and hold the tail). What it cannot measure is what changes
+the frames: the camera's settings, the generator, the route.
 """
 
 from __future__ import annotations
@@ -61,21 +61,14 @@ def _record(task: tuple[str, Path, int | None]) -> tuple[str, str]:
 def _score(task: tuple[Path, str, tuple]) -> dict:
     """One dataset replayed and scored in a worker: the sweep's row (status, world, flattened metrics)."""
     folder, odometry, setting = task
-    from neuroslam import presets
-    from neuroslam.config import Config
     from neuroslam.lab.frames import FolderStream
     from neuroslam.lab.runner import run
-    from neuroslam.lab.sweep import _merge, _nested
+    from neuroslam.lab.sweep import setting_config
     from neuroslam.slam import NeuroSLAM
 
     world = json.loads((folder / "dataset.json").read_text()).get("world", folder.name)
     try:
-        config = presets.get("sim")
-        if setting:
-            overrides: dict = {}
-            for field, value in setting:
-                _merge(overrides, _nested(field, value))
-            config = Config.from_dict(overrides, base=config)
+        config = setting_config(setting)
         stream = FolderStream(folder, groundtruth=folder / "groundtruth.tum",
                               wheel_odometry=folder / "wheel_odometry.tum")
         result = run(stream, NeuroSLAM(config), odometry=odometry, progress=False)

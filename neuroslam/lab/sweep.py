@@ -128,6 +128,24 @@ def flatten(data: dict, prefix: str = "") -> dict[str, Any]:
 
 
 
+def setting_overrides(setting: tuple) -> dict:
+    """A sweep setting's (dotted field, value) pairs as nested configuration overrides."""
+    overrides: dict = {}
+    for field, value in setting:
+        _merge(overrides, _nested(field, value))
+    return overrides
+
+
+def setting_config(setting: tuple):
+    """The ``sim`` preset with a sweep setting's (dotted field, value) pairs over it: a
+    :class:`~neuroslam.config.Config`."""
+    from .. import presets
+    from ..config import Config
+
+    config = presets.get("sim")
+    return Config.from_dict(setting_overrides(setting), base=config) if setting else config
+
+
 def _run_drive(world: str, seed: int, setting: tuple, laps: int, max_frames: int | None, folder: str,
                odometry: str = "visual", camera: dict[str, float] | None = None) -> dict:
     """One drive in a worker process, as ``neuroslam drive`` makes it: the ``sim`` preset with the setting
@@ -135,8 +153,6 @@ def _run_drive(world: str, seed: int, setting: tuple, laps: int, max_frames: int
     one-line error of a failed drive (bad input or a bug: the sweep goes on)."""
     import sim
 
-    from .. import presets
-    from ..config import Config
     from ..slam import NeuroSLAM
     from .frames import DriveStream
     from .runner import run
@@ -144,13 +160,9 @@ def _run_drive(world: str, seed: int, setting: tuple, laps: int, max_frames: int
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
     try:
-        config = presets.get("sim")
+        config = setting_config(setting)
         if setting:
-            overrides: dict = {}
-            for field, value in setting:
-                _merge(overrides, _nested(field, value))
-            (out / "setting.json").write_text(json.dumps(overrides))
-            config = Config.from_dict(overrides, base=config)
+            (out / "setting.json").write_text(json.dumps(setting_overrides(setting)))
         drive = sim.ScriptedDrive(world, laps=laps, max_frames=max_frames, seed=seed,
                                   camera=sim.CameraConfig(**(camera or {})))
         result = run(DriveStream(drive), NeuroSLAM(config), odometry=odometry, progress=False)

@@ -221,7 +221,8 @@ def confirm_place(
         # with rival_odds, near the last recognised place a copy one place on is the same evidence (see above)
         shift_distinct = 2 * tolerance if rival_odds is not None and radius <= 2 * tolerance else distinct
         if rival_shift_support(window_poses, window_templates, window_alternatives, frames[best], map_poses,
-                               experiences_of, eligible, robot, reach=reach, shift_reach=shift_reach,
+                               experiences_of, eligible, robot, reach=reach,
+                               shift_reach=None if rival_odds is not None else shift_reach,
                                tolerance=tolerance, climb_error=climb_error, distinct=shift_distinct,
                                odds=rival_odds, sigma=radius / 2) >= matches:
             return -1
@@ -255,7 +256,8 @@ def rival_shift_support(
     within ``shift_reach`` (horizontal, vertical; m; None: no such allowance). With ``odds``, horizontally a copy
     is a rival instead where the hypothesis is less than ``odds`` times as likely a place under a Gaussian of
     ``sigma`` (m) about the robot's estimate (its squared distance from the estimate at most the hypothesis's
-    plus ``2 sigma² ln odds``), and vertically within ``reach``. The shifts tried
+    plus ``2 sigma² ln odds``), and vertically within ``reach`` (give no ``shift_reach`` with it: the odds weigh
+    a copy far from the estimate already). The shifts tried
     are those from where the hypothesis maps a frame to its view's eligible places (and its alternatives'); a
     frame agrees with the copy shifted by ``c`` when one of its places lies within ``tolerance`` of its shifted
     mapping horizontally and ``tolerance`` plus ``climb_error`` per metre of its distance from the current frame
@@ -292,7 +294,7 @@ def rival_shift_support(
     else:
         possible = ((np.linalg.norm(shifted[:, :2] - robot[:2], axis=1) <= reach[0])
                     & (np.abs(shifted[:, 2] - robot[2]) <= reach[1]))
-    if shift_reach is not None and odds is None:  # no farther from the hypothesis than it lies from the estimate
+    if shift_reach is not None:  # no farther from the hypothesis than it lies from the estimate
         possible |= ((np.linalg.norm(vectors[:, :2], axis=1) <= shift_reach[0])
                      & (np.abs(vectors[:, 2]) <= shift_reach[1]))
     candidate = (np.linalg.norm(vectors, axis=1) > distinct) & possible

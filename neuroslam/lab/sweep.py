@@ -126,8 +126,6 @@ def flatten(data: dict, prefix: str = "") -> dict[str, Any]:
     return flat
 
 
-
-
 def setting_overrides(setting: tuple) -> dict:
     """A sweep setting's (dotted field, value) pairs as nested configuration overrides."""
     overrides: dict = {}

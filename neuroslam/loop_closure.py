@@ -43,6 +43,7 @@ def confirm_place(
     rival_shifts: bool = False,
     rival_odds: float | None = None,
     heading: float | None = None,
+    offset: np.ndarray | None = None,
 ) -> int:
     """The old experience the last frames confirm the robot is at, or -1.
 
@@ -140,6 +141,13 @@ def confirm_place(
         heading: rad, the robot's heading in the map, or None. Given, every hypothesis faces it (maps the window
             by the odometry's heading) instead of its place's yaw plus ``relative_yaw``: for a view whose match
             does not pin its yaw (:class:`~neuroslam.slam.NeuroSLAM`'s ``confirmation_pinned_yaw``).
+        offset: a (3,) array, or None. Given, and a place confirmed, it is filled with where the window says the
+            robot is against the place (x, y, z in the map; m): the median, over the window frames that agree
+            with the winner, of the vector from where the winner maps each frame to the nearest of its view's
+            places that makes it agree. The place is where the current view was learned; a view is seen along
+            a metre or two, so the robot may stand anywhere along that stretch, and the window's frames, each
+            placed by its own view to within that stretch, say where along it (:class:`~neuroslam.slam.NeuroSLAM`'s
+            ``closure_window_pose``). Left as it was where nothing is confirmed, and with ``along_path``.
     """
     window_poses = np.asarray(window_poses, dtype=float)
     if len(window_poses) < matches:
@@ -161,6 +169,7 @@ def confirm_place(
     frames = np.column_stack([map_poses[hypotheses, :3], yaws - now[3]])
     support = np.zeros(len(hypotheses), dtype=int)
     misfit = np.zeros(len(hypotheses))  # m, summed over the agreeing frames: the distance to the nearest agreeing place
+    residuals = []  # per window frame, (H, 3): its nearest agreeing place minus where each hypothesis maps it (NaN: none)
     if window_alternatives is None:
         window_alternatives = [()] * len(window_poses)
     for pose, template, alternatives in zip(window_poses, window_templates, window_alternatives, strict=True):
@@ -193,6 +202,9 @@ def confirm_place(
         agreeing = agree.any(axis=1) & evidence
         support += agreeing
         misfit += np.where(agreeing, np.where(agree, gaps, np.inf).min(axis=1, initial=np.inf), 0.0)
+        if offset is not None:
+            nearest = places[np.argmin(np.where(agree, gaps, np.inf), axis=1)]
+            residuals.append(np.where(agreeing[:, None], map_poses[nearest, :3] - mapped, np.nan))
     confirmed = support >= matches
     if not (confirmed & within).any():
         return -1
@@ -226,6 +238,8 @@ def confirm_place(
                                tolerance=tolerance, climb_error=climb_error, distinct=shift_distinct,
                                odds=rival_odds, sigma=radius / 2) >= matches:
             return -1
+    if offset is not None:  # the winner agrees on at least ``matches`` frames: the median is over them
+        offset[:] = np.nanmedian(np.stack(residuals)[:, best], axis=0)
     return int(winner)
 
 

@@ -233,12 +233,14 @@ class NeuroSLAM(SessionsMixin, StateMixin):
         if self.config.experience_map.loop_closure == "confirmed" and not merged:
             # with confirmation_pinned_yaw, a view that does not pin its yaw leaves the heading to the odometry
             keep_heading = self.config.experience_map.confirmation_pinned_yaw and not pinned
+            # with closure_window_pose, where the window says the robot stands against its place (m, in the map)
+            offset = np.zeros(3) if self.config.experience_map.closure_window_pose else None
             place = -1 if refused else self._confirmed_place(view.relative_yaw, float(timestamp),
-                                                             keep_heading=keep_heading)
+                                                             keep_heading=keep_heading, offset=offset)
             may_close_loop = place >= 0
             if may_close_loop:
                 grid_code, direction_code = self._relocate(place, view.relative_yaw, grid_code, direction_code,
-                                                           keep_heading=keep_heading)
+                                                           keep_heading=keep_heading, offset=offset)
             elif not refused and self.config.experience_map.confirmation_along_path and pinned:
                 # eq. M8, where the view's match pins its yaw (as eq. M6's below): the link holds the yaw
                 along_path = self._confirmed_place(view.relative_yaw, float(timestamp), along_path=True)
@@ -306,14 +308,15 @@ class NeuroSLAM(SessionsMixin, StateMixin):
             0 < config.confirmation_turn <= turned and moved <= SPOT_RADIUS * turned)
 
     def _confirmed_place(self, relative_yaw: float, time: float, *, along_path: bool = False,
-                         keep_heading: bool = False) -> int:
+                         keep_heading: bool = False, offset: np.ndarray | None = None) -> int:
         """The old experience the last frames confirm (:func:`~neuroslam.loop_closure.confirm_place`), or -1.
 
         Old: made more than ``confirmation_age`` ago. The search radius grows with the distance driven
         since the robot was last on an old experience (``confirmation_drift`` per metre, and
         ``confirmation_climb_error`` per metre for heights). With ``along_path``, eq. M8's test instead. With
         ``keep_heading``, every hypothesis faces the robot's heading in the map, not its place's yaw turned by the
-        view's ``relative_yaw`` (a view whose match does not pin its yaw).
+        view's ``relative_yaw`` (a view whose match does not pin its yaw). ``offset`` (a (3,) array, or None): filled
+        with where the window says the robot is against the place (m, in the map; ``confirm_place``'s ``offset``).
         """
         themap = self.experience_map
         eligible = self._old(time) & (themap.components == themap.component)
@@ -321,11 +324,11 @@ class NeuroSLAM(SessionsMixin, StateMixin):
         return self._confirm(np.array([entry[0] for entry in self._recent]),
                              np.array([entry[1] for entry in self._recent]), [entry[2] for entry in self._recent],
                              relative_yaw, eligible, robot, self._since_closure, along_path=along_path,
-                             heading=float(robot[3]) if keep_heading else None)
+                             heading=float(robot[3]) if keep_heading else None, offset=offset)
 
     def _confirm(self, poses: np.ndarray, templates: np.ndarray, alternatives: list, relative_yaw: float,
                  eligible: np.ndarray, robot: np.ndarray, since: float, *, along_path: bool = False,
-                 heading: float | None = None) -> int:
+                 heading: float | None = None, offset: np.ndarray | None = None) -> int:
         """:func:`~neuroslam.loop_closure.confirm_place` over a window (odometry poses, views and their other
         matching templates, the newest last) with this configuration's tolerances, the search radius grown by
         ``since`` metres driven without a loop closure; the confirmed experience, or -1."""
@@ -342,7 +345,7 @@ class NeuroSLAM(SessionsMixin, StateMixin):
             rival_spread=config.confirmation_rival_spread * config.confirmation_tolerance, along_path=along_path,
             local_reach=config.confirmation_local_reach and not along_path, drift=config.confirmation_drift,
             rival_shifts=config.confirmation_rival_shifts and not along_path,
-            rival_odds=config.confirmation_rival_odds or None, heading=heading)
+            rival_odds=config.confirmation_rival_odds or None, heading=heading, offset=offset)
 
     def _is_old(self, experience: int, time: float) -> bool:
         """One experience's entry of :meth:`_old` (without computing the others)."""
@@ -357,15 +360,21 @@ class NeuroSLAM(SessionsMixin, StateMixin):
                 | (themap.sessions < themap.session))
 
     def _relocate(self, place: int, relative_yaw: float, grid_code: np.ndarray, direction_code: np.ndarray, *,
-                  keep_heading: bool = False) -> tuple[np.ndarray, np.ndarray]:
+                  keep_heading: bool = False, offset: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Move both packets to a confirmed place's codes, unless NeuroSLAM eq. 22 already matches it there.
         With ``keep_heading`` the head-direction packet keeps its yaw (the odometry's) and moves in height only.
+        With ``offset`` (m, in the map; ``closure_window_pose``), the grid packet moves to the place's code moved
+        horizontally by it, whether or not eq. 22 matches: the window, not the robot's own estimate, says where
+        the robot stands against the place (the window's heights carry the odometry's climb error: the place's
+        height stays).
 
         The packets are shifted whole (the same exact shift as path integration, NeuroSLAM eqs. 6–9 and 17–20),
         so they keep their resting shape. Returns the decoded codes afterwards.
         """
         themap = self.experience_map
-        target_grid = themap.grid_codes[place]
+        target_grid = themap.grid_codes[place].copy()
+        if offset is not None:
+            target_grid[:2] += np.asarray(offset[:2], dtype=float) / themap.grid_cell_size[:2]
         target_direction = themap.direction_codes[place].copy()
         if keep_heading:
             target_direction[0] = direction_code[0]
@@ -374,7 +383,7 @@ class NeuroSLAM(SessionsMixin, StateMixin):
         config = self.config.experience_map
         score = (config.grid_weight * self.grid_cells.distance(grid_code, target_grid)
                  + config.direction_weight * self.head_direction.distance(direction_code, target_direction))
-        if score <= config.threshold:
+        if score <= config.threshold and offset is None:
             return grid_code, direction_code
         grid_size = np.asarray(self.config.grid_cells.size, dtype=float)
         direction_size = np.asarray(self.config.head_direction.size, dtype=float)

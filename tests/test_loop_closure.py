@@ -585,3 +585,65 @@ def test_rival_odds_reach_the_confirmation_and_are_checked(monkeypatch):
     for bad in (0.5, 1.0, -2.0):
         with pytest.raises(InvalidParameterError, match="confirmation_rival_odds"):
             Config.from_dict({"experience_map": {"confirmation_rival_odds": bad}})
+
+
+def test_the_window_says_where_along_its_place_the_robot_stands():
+    """The current view was learned 0.6 m back along the corridor (a view is seen along a metre or two, and its
+    place is where it was learned); every other view of the window was learned where the robot sees it again. The
+    place is confirmed, and ``offset`` says the robot stands 0.6 m on from it along the corridor (the median of the
+    window's frames, each placed by its own view): the same whichever way the odometry has drifted."""
+    path = _path(60, turn_at=100)
+    behind = path[29] - np.array([0.6, 0.0, 0.0, 0.0])
+    poses = np.vstack([path, behind])  # experience t for view t, and 60 for the current view (29)
+    experiences_of = lambda template: np.array([60 if template == 29 else template], dtype=np.int64)  # noqa: E731
+    c, s = math.cos(0.5), math.sin(0.5)
+    truth = path[10:30]
+    odometry = np.stack([c * truth[:, 0] - s * truth[:, 1] + 7.0, s * truth[:, 0] + c * truth[:, 1] - 3.0,
+                         truth[:, 2] + 1.0, truth[:, 3] + 0.5], axis=1)
+    offset = np.full(3, np.nan)
+    place = confirm_place(odometry, np.arange(10, 30), 0.0, poses, experiences_of, np.ones(61, dtype=bool), path[29],
+                          radius=3.0, tolerance=1.0, matches=16, offset=offset)
+    assert place == 60
+    np.testing.assert_allclose(offset, [0.6, 0.0, 0.0], atol=1e-9)
+    untouched = np.full(3, 5.0)  # nothing confirmed: the array is left as it was
+    assert confirm_place(odometry, np.arange(10, 30), 0.0, poses, experiences_of, np.ones(61, dtype=bool),
+                         path[29] + np.array([50.0, 0.0, 0.0, 0.0]), radius=3.0, tolerance=1.0, matches=16,
+                         offset=untouched) == -1
+    np.testing.assert_array_equal(untouched, 5.0)
+
+
+def test_a_window_pose_closure_moves_the_codes_to_the_place_and_the_windows_offset(monkeypatch):
+    """With ``closure_window_pose`` the confirmation is asked for the window's offset, and a relocation moves the
+    grid packet to the place's code moved horizontally by it even where the packet already lies within
+    ``threshold`` of the place (where without it the packet, the robot's own estimate, is kept); the option is
+    checked."""
+    import dataclasses
+
+    import neuroslam.slam as slam_module
+    from neuroslam import NeuroSLAM, presets
+    from neuroslam.config import Config
+    from neuroslam.errors import InvalidParameterError
+
+    config = presets.get("sim")
+    rng = np.random.default_rng(3)
+    slam = NeuroSLAM(dataclasses.replace(config, experience_map=dataclasses.replace(
+        config.experience_map, closure_window_pose=True)))
+    for k in range(3):
+        slam.step(rng.integers(0, 255, (120, 160, 3), dtype=np.uint8), 0.1 * k)
+    calls = []
+    monkeypatch.setattr(slam_module, "confirm_place", lambda *args, **kwargs: calls.append(kwargs) or -1)
+    slam._confirmed_place(0.0, 100.0, offset=np.zeros(3))
+    assert calls[-1]["offset"].shape == (3,)
+
+    slam.grid_cells.network.step(np.array([0.2, 0.0, 0.0]))  # a fifth of a cell off the place: within threshold
+    grid_code, direction_code = slam.grid_cells.decode(), slam.head_direction.decode()
+    place_grid = slam.experience_map.grid_codes[0]
+    size = np.asarray(slam.config.grid_cells.size, dtype=float)
+    kept, _ = slam._relocate(0, 0.0, grid_code, direction_code)
+    np.testing.assert_array_equal(kept, grid_code)
+    cell = slam.experience_map.grid_cell_size
+    moved, _ = slam._relocate(0, 0.0, grid_code, direction_code, offset=np.array([1.5, -0.75, 0.4]))
+    expected = place_grid + np.array([1.5 / cell[0], -0.75 / cell[1], 0.0])
+    assert np.abs((moved - expected + size / 2) % size - size / 2).max() < 0.05
+    with pytest.raises(InvalidParameterError, match="closure_window_pose"):
+        Config.from_dict({"experience_map": {"closure_window_pose": 1}})

@@ -121,6 +121,12 @@ class ExperienceMapConfig:
             reach (:func:`~neuroslam.loop_closure.confirm_place`'s ``rival_odds``): the search radius taken as the
             estimate's 2σ bound, a copy refuses the place where the place is less than this many times as likely.
             0 (the default): the reach rule.
+        closure_window_pose: where a loop closure puts the robot. True: on its confirmed place moved by where
+            the confirmation window's frames say the robot is against it (:func:`~neuroslam.loop_closure.confirm_place`'s
+            ``offset``: the median over the agreeing frames, each placed by its own view), always; the robot's codes
+            are moved there. False (the default): on the place, with the codes moved only where they lie farther
+            from it than ``threshold``, and otherwise kept, the robot's own estimate near the place giving the
+            closure's offset.
         confirmation_pinned_yaw: a loop closure turns the robot onto its place by the view's yaw relative to its
             template only where the view's match pins that yaw (eq. M6's rule: its difference below half its
             template's column contrast); elsewhere the robot keeps the odometry's heading, and the hypotheses
@@ -206,6 +212,7 @@ class ExperienceMapConfig:
     confirmation_rival_shifts: bool = True
     confirmation_pinned_yaw: bool = True
     confirmation_rival_odds: float = 0.0
+    closure_window_pose: bool = False
     confirmation_tolerance: float = 1.0
     confirmation_age: float = 30.0
     confirmation_drift: float = 0.1
@@ -256,6 +263,8 @@ class ExperienceMapConfig:
                 isinstance(self.confirmation_rival_shifts, bool), "must be true or false")
         require(f"{path}.confirmation_pinned_yaw", self.confirmation_pinned_yaw,
                 isinstance(self.confirmation_pinned_yaw, bool), "must be true or false")
+        require(f"{path}.closure_window_pose", self.closure_window_pose,
+                isinstance(self.closure_window_pose, bool), "must be true or false")
         views = self.confirmation_views
         require(f"{path}.confirmation_views", views,
                  isinstance(views, int) and not isinstance(views, bool) and 1 <= views <= 100,

@@ -169,7 +169,7 @@ def confirm_place(
     frames = np.column_stack([map_poses[hypotheses, :3], yaws - now[3]])
     support = np.zeros(len(hypotheses), dtype=int)
     misfit = np.zeros(len(hypotheses))  # m, summed over the agreeing frames: the distance to the nearest agreeing place
-    residuals = []  # per window frame, (H, 3): its nearest agreeing place minus where each hypothesis maps it (NaN: none)
+    residuals = []  # per window frame, (H, 3): its nearest agreeing place minus where each hypothesis maps it (NaN)
     if window_alternatives is None:
         window_alternatives = [()] * len(window_poses)
     for pose, template, alternatives in zip(window_poses, window_templates, window_alternatives, strict=True):

@@ -122,11 +122,11 @@ class ExperienceMapConfig:
             estimate's 2σ bound, a copy refuses the place where the place is less than this many times as likely.
             0 (the default): the reach rule.
         closure_window_pose: where a loop closure puts the robot. True: on its confirmed place moved by where
-            the confirmation window's frames say the robot is against it (:func:`~neuroslam.loop_closure.confirm_place`'s
-            ``offset``: the median over the agreeing frames, each placed by its own view), always; the robot's codes
-            are moved there. False (the default): on the place, with the codes moved only where they lie farther
-            from it than ``threshold``, and otherwise kept, the robot's own estimate near the place giving the
-            closure's offset.
+            the confirmation window's frames say the robot is against it
+            (:func:`~neuroslam.loop_closure.confirm_place`'s ``offset``: the median over the agreeing frames, each
+            placed by its own view), always; the robot's codes are moved there. False (the default): on the place,
+            with the codes moved only where they lie farther from it than ``threshold``, and otherwise kept, the
+            robot's own estimate near the place giving the closure's offset.
         confirmation_pinned_yaw: a loop closure turns the robot onto its place by the view's yaw relative to its
             template only where the view's match pins that yaw (eq. M6's rule: its difference below half its
             template's column contrast); elsewhere the robot keeps the odometry's heading, and the hypotheses

@@ -127,10 +127,11 @@ class ExperienceMapConfig:
             placed by its own view), always; the robot's codes are moved there. On the 43 benchmark worlds, camera
             only, better by more than 5 cm on 20 and worse on 6; with the wheels better on 30 and worse on 5, the
             worst 2.00 → 1.66 m; but the hand-written angled car park goes 0.83 → 3.07 m camera only (its
-            odometry 1.82 m) and 2.85 → 2.94 m with the wheels: not the default (the fifty-sixth step of
-            docs/generalization.md). False (the default): on the place, with the codes moved only where they lie
-            farther from it than ``threshold`` (about 2 m or 10° with the ``sim`` preset), and otherwise kept, the
-            robot's own drifted estimate near the place giving the closure's offset.
+            odometry 1.82 m) and 2.85 → 2.94 m with the wheels (eq. M4 on its 60° bays; without it 0.79 and
+            0.75 m): not the default (the fifty-sixth step of docs/generalization.md). False (the default): on
+            the place, with the codes moved only where they lie farther from it than ``threshold`` (about 2 m or
+            10° with the ``sim`` preset), and otherwise kept, the robot's own drifted estimate near the place
+            giving the closure's offset.
         confirmation_pinned_yaw: a loop closure turns the robot onto its place by the view's yaw relative to its
             template only where the view's match pins that yaw (eq. M6's rule: its difference below half its
             template's column contrast); elsewhere the robot keeps the odometry's heading, and the hypotheses

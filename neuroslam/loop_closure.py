@@ -169,7 +169,7 @@ def confirm_place(
     frames = np.column_stack([map_poses[hypotheses, :3], yaws - now[3]])
     support = np.zeros(len(hypotheses), dtype=int)
     misfit = np.zeros(len(hypotheses))  # m, summed over the agreeing frames: the distance to the nearest agreeing place
-    residuals = []  # per window frame, (H, 3): its nearest agreeing place minus where each hypothesis maps it (NaN)
+    counted = []  # with offset: per window frame that counted, (pose, its places, whether it is evidence)
     if window_alternatives is None:
         window_alternatives = [()] * len(window_poses)
     for pose, template, alternatives in zip(window_poses, window_templates, window_alternatives, strict=True):
@@ -203,8 +203,7 @@ def confirm_place(
         support += agreeing
         misfit += np.where(agreeing, np.where(agree, gaps, np.inf).min(axis=1, initial=np.inf), 0.0)
         if offset is not None:
-            nearest = places[np.argmin(np.where(agree, gaps, np.inf), axis=1)]
-            residuals.append(np.where(agreeing[:, None], map_poses[nearest, :3] - mapped, np.nan))
+            counted.append((pose, places, evidence))
     confirmed = support >= matches
     if not (confirmed & within).any():
         return -1
@@ -239,8 +238,28 @@ def confirm_place(
                                odds=rival_odds, sigma=radius / 2) >= matches:
             return -1
     if offset is not None:  # the winner agrees on at least ``matches`` frames: the median is over them
-        offset[:] = np.nanmedian(np.stack(residuals)[:, best], axis=0)
+        offset[:] = _window_offset(counted, best, frames[best], now, map_poses, tolerance, climb_error)
     return int(winner)
+
+
+def _window_offset(counted: list, best: int, frame: np.ndarray, now: np.ndarray, map_poses: np.ndarray,
+                   tolerance: float, climb_error: float) -> np.ndarray:
+    """:func:`confirm_place`'s ``offset`` (m, x, y, z in the map): over the window frames that agree with the
+    hypothesis ``best`` (whose frame in the map is ``frame``), the median of the vector from where it maps each to
+    the nearest of its places that makes it agree. ``counted``: (odometry pose, places, evidence) of each window
+    frame the confirmation counted, evidence True or per hypothesis. Run once, on a confirmed place."""
+    residuals = []
+    for pose, places, evidence in counted:
+        if not (evidence if np.ndim(evidence) == 0 else evidence[best]):
+            continue
+        dx, dy, dz = pose[:3] - now[:3]
+        mapped = compose(frame[None], np.array([dx, dy, dz, 0.0]))[0, :3]
+        gaps = np.linalg.norm(map_poses[places, :2] - mapped[:2], axis=1)
+        climbs = np.abs(map_poses[places, 2] - mapped[2])
+        agree = (gaps <= tolerance) & (climbs <= tolerance + climb_error * math.hypot(dx, dy))
+        if agree.any():
+            residuals.append(map_poses[places[np.argmin(np.where(agree, gaps, np.inf))], :3] - mapped)
+    return np.median(np.array(residuals), axis=0)
 
 
 def rival_shift_support(

@@ -197,8 +197,7 @@ def confirm_place(
             places = np.unique(np.concatenate([places, *(experiences_of(int(other)) for other in alternatives)]))
             places = places[eligible[places]]
             gaps = np.linalg.norm(mapped[:, None, :2] - map_poses[None, places, :2], axis=2)
-        climbs = np.abs(mapped[:, None, 2] - map_poses[None, places, 2])
-        agree = (gaps <= tolerance) & (climbs <= tolerance + climb_error * math.hypot(dx, dy))
+        agree = _agree(mapped, gaps, map_poses[places, 2], tolerance, tolerance + climb_error * math.hypot(dx, dy))
         agreeing = agree.any(axis=1) & evidence
         support += agreeing
         misfit += np.where(agreeing, np.where(agree, gaps, np.inf).min(axis=1, initial=np.inf), 0.0)
@@ -254,12 +253,20 @@ def _window_offset(counted: list, best: int, frame: np.ndarray, now: np.ndarray,
             continue
         dx, dy, dz = pose[:3] - now[:3]
         mapped = compose(frame[None], np.array([dx, dy, dz, 0.0]))[0, :3]
-        gaps = np.linalg.norm(map_poses[places, :2] - mapped[:2], axis=1)
-        climbs = np.abs(map_poses[places, 2] - mapped[2])
-        agree = (gaps <= tolerance) & (climbs <= tolerance + climb_error * math.hypot(dx, dy))
+        gaps = np.linalg.norm(map_poses[places, :2] - mapped[:2], axis=1)[None]
+        agree = _agree(mapped[None], gaps, map_poses[places, 2], tolerance,
+                       tolerance + climb_error * math.hypot(dx, dy))[0]
         if agree.any():
-            residuals.append(map_poses[places[np.argmin(np.where(agree, gaps, np.inf))], :3] - mapped)
+            residuals.append(map_poses[places[np.argmin(np.where(agree, gaps[0], np.inf))], :3] - mapped)
     return np.median(np.array(residuals), axis=0)
+
+
+def _agree(mapped: np.ndarray, gaps: np.ndarray, heights: np.ndarray, tolerance: float,
+           height_tolerance: float) -> np.ndarray:
+    """(H, P) whether each of P places (``heights``, m) lies where each of H hypotheses maps a window frame
+    (``mapped``, (H, 3)): horizontally within ``tolerance`` (``gaps``, (H, P), m) and vertically within
+    ``height_tolerance`` (m)."""
+    return (gaps <= tolerance) & (np.abs(mapped[:, None, 2] - heights[None]) <= height_tolerance)
 
 
 def rival_shift_support(

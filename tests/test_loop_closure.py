@@ -613,27 +613,24 @@ def test_the_window_says_where_along_its_place_the_robot_stands():
 
 
 def test_a_window_pose_closure_moves_the_codes_to_the_place_and_the_windows_offset(monkeypatch):
-    """With ``closure_window_pose`` the confirmation is asked for the window's offset, and a relocation moves the
-    grid packet to the place's code moved horizontally by it even where the packet already lies within
-    ``threshold`` of the place (where without it the packet, the robot's own estimate, is kept); the option is
-    checked."""
-    import dataclasses
-
-    import neuroslam.slam as slam_module
+    """With ``closure_window_pose`` each step asks the confirmation for the window's offset (without it, none), and
+    a relocation moves the grid packet to the place's code moved horizontally by it even where the packet already
+    lies within ``threshold`` of the place (where without it the packet, the robot's own estimate, is kept); the
+    option is checked."""
     from neuroslam import NeuroSLAM, presets
     from neuroslam.config import Config
     from neuroslam.errors import InvalidParameterError
 
-    config = presets.get("sim")
-    rng = np.random.default_rng(3)
-    slam = NeuroSLAM(dataclasses.replace(config, experience_map=dataclasses.replace(
-        config.experience_map, closure_window_pose=True)))
-    for k in range(3):
-        slam.step(rng.integers(0, 255, (120, 160, 3), dtype=np.uint8), 0.1 * k)
-    calls = []
-    monkeypatch.setattr(slam_module, "confirm_place", lambda *args, **kwargs: calls.append(kwargs) or -1)
-    slam._confirmed_place(0.0, 100.0, offset=np.zeros(3))
-    assert calls[-1]["offset"].shape == (3,)
+    image = np.random.default_rng(3).integers(0, 255, (120, 160, 3), dtype=np.uint8)
+    asked = {}
+    for on in (False, True):
+        slam = NeuroSLAM(Config.from_dict({"experience_map": {"closure_window_pose": on}}, base=presets.get("sim")))
+        monkeypatch.setattr(slam, "_confirmed_place", lambda *args, on=on, **kwargs: asked.setdefault(
+            on, []).append(kwargs["offset"]) or -1)
+        for k in range(4):  # the same view again: a confirmation is tried from the second frame on
+            slam.step(image, 0.1 * k)
+    assert asked[False] and all(offset is None for offset in asked[False])
+    assert asked[True] and all(offset.shape == (3,) for offset in asked[True])
 
     slam.grid_cells.network.step(np.array([0.2, 0.0, 0.0]))  # a fifth of a cell off the place: within threshold
     grid_code, direction_code = slam.grid_cells.decode(), slam.head_direction.decode()

@@ -514,7 +514,7 @@ class ExperienceMap(MapSessionsMixin):
         if self.config.structure_weight > 0:
             seen = members[np.isfinite(self.structure_orientations[members])]
             structure = StructureTerms(local[seen], self.structure_orientations[seen], self.config.structure_weight,
-                                       self.config.structure_tolerance)
+                                       self.config.structure_tolerance, self.config.structure_families)
         views = None
         if self.config.view_heading_weight > 0:
             views = ViewHeadingTerms(*self._view_headings(members), self.config.view_heading_weight,

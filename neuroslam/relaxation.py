@@ -9,6 +9,7 @@ map and decides when to call them (``ExperienceMapConfig.relaxation``).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,8 +18,8 @@ import scipy.sparse.linalg
 
 from .geometry import quarter_wrap, wrap
 
-__all__ = ["StructureTerms", "ViewHeadingTerms", "relax_passes", "solve_least_squares", "structure_axis",
-           "view_heading_weights"]
+__all__ = ["StructureTerms", "ViewHeadingTerms", "relax_passes", "solve_least_squares", "structure_axes",
+           "structure_axis", "view_heading_weights"]
 
 SETTLED = 1e-4  # m or rad: relaxation stops once no experience moves more than this in a pass
 LEAST_SQUARES_ITERATIONS = 3  # Gauss–Newton iterations at most per call; an unfinished solve goes on next call
@@ -39,15 +40,26 @@ class StructureTerms:
         weight: the weight of each one's squared error (rad²), relative to a driven link's.
         tolerance: rad, the scale of the Cauchy weighting that makes a misread orientation count less
             (an error of ``tolerance`` counts half, of three times it a tenth).
+        families: the most directions of lines the map may hold (:func:`structure_axes`); 1: one direction
+            (and its perpendicular), as eq. M4 was first written.
     """
 
     experiences: np.ndarray
     orientations: np.ndarray
     weight: float
     tolerance: float
+    families: int = 1
 
 
 STRUCTURE_AXIS_ITERATIONS = 5  # reweightings of structure_axis's mean
+#: structure_axes: a further direction of lines lies this many tolerances from every direction already found, where
+#: their Cauchy weight has fallen to a tenth: nearer, its orientations are the found direction's scatter
+STRUCTURE_FAMILY_SEPARATION = 3.0
+#: structure_axes: a further direction needs this share of the first's support (the sum of its readings' Cauchy
+#: weights). A direction the building is laid along is seen over a part of the path comparable to the first's, at
+#: least a third of what the two hold together; a run of misread frames (a wall's foot, a ramp's edge) over a
+#: stretch of it
+STRUCTURE_FAMILY_SHARE = 0.5
 #: eq. M6's neighbourhood: a residual is judged against the median of this many observations nearest it (in
 #: the order the experiences were made): about 20 m of path where a path is driven again (an observation every
 #: metre or so at the ``sim`` defaults), and a look-alike's run of up to half as many is outvoted
@@ -118,6 +130,48 @@ def structure_axis(yaws: np.ndarray, orientations: np.ndarray, tolerance: float 
     return axis
 
 
+def structure_axes(yaws: np.ndarray, orientations: np.ndarray, tolerance: float, families: int = 1) -> np.ndarray:
+    """The directions of lines in the map frame (modulo 90°, rad) that a set of experiences holds, the strongest
+    first, at most ``families`` of them.
+
+    A building may be laid out along more than one direction: a car park's bays painted at 60° to its lanes,
+    a wing turned against the main block. Eq. M2 reads each frame's lines as one direction, so the map's
+    readings (yaw plus orientation) then cluster round more than one. Each direction is the strongest cluster
+    of the readings farther than :data:`STRUCTURE_FAMILY_SEPARATION` tolerances from every direction found
+    before it (the first: of all readings): the peak of their Cauchy density, the sum over readings of
+    c(error) = 1 / (1 + (error / tolerance)²) (on bins a tenth of ``tolerance`` wide), refined by
+    :data:`STRUCTURE_AXIS_ITERATIONS` means of the errors weighted by c (the Cauchy M-estimate). A circular
+    mean, :func:`structure_axis`'s start, would lie between two clusters, and its refinement stop there. A
+    further direction counts where its support (the sum of c over those readings) is at least
+    :data:`STRUCTURE_FAMILY_SHARE` of the first's (over all readings); otherwise the search stops.
+    """
+    directions = quarter_wrap(np.asarray(yaws, dtype=float) + np.asarray(orientations, dtype=float))
+    bins = max(int(round(math.pi / 2 / (tolerance / 10))), 1)
+    width = math.pi / 2 / bins
+    kernel_spectrum = np.fft.rfft(1 / (1 + (quarter_wrap(np.arange(bins) * width) / tolerance) ** 2))
+    axes: list[float] = []
+    remaining = directions
+    first = 0.0
+    while len(remaining):
+        counts = np.bincount(np.floor((remaining + math.pi / 4) / width).astype(np.int64) % bins, minlength=bins)
+        density = np.fft.irfft(np.fft.rfft(counts) * kernel_spectrum, bins)  # circular: the wrap at ±45°
+        axis = -math.pi / 4 + (int(np.argmax(density)) + 0.5) * width
+        for _ in range(STRUCTURE_AXIS_ITERATIONS):  # the Cauchy-weighted mean of the errors, reweighted
+            error = quarter_wrap(remaining - axis)
+            weight = 1 / (1 + (error / tolerance) ** 2)
+            axis += float(weight @ error / weight.sum())
+        support = float(np.sum(1 / (1 + (quarter_wrap(remaining - axis) / tolerance) ** 2)))
+        if axes and support < STRUCTURE_FAMILY_SHARE * first:
+            break
+        first = first or support
+        axes.append(float(quarter_wrap(axis)))
+        if len(axes) == families:
+            break
+        nearest = np.min(np.abs(quarter_wrap(directions[:, None] - np.asarray(axes)[None, :])), axis=1)
+        remaining = directions[nearest > STRUCTURE_FAMILY_SEPARATION * tolerance]
+    return np.asarray(axes)
+
+
 def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndarray, link_poses: np.ndarray,
                         weights: np.ndarray, structure: StructureTerms | None = None,
                         length_weights: np.ndarray | None = None,
@@ -153,10 +207,12 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
     lines adds a residual on its yaw: buildings are built along two perpendicular directions, so the lines'
     orientation phi_i in the experience's frame plus its yaw is one direction psi of the whole map, modulo 90°,
 
-        r_i = sqrt(w_i) · wrap_90(yaw_i + phi_i − psi),   w_i = weight / (1 + (u_i / tolerance)²)      (M4)
+        r_i = sqrt(w_i) · wrap_90(yaw_i + phi_i − psi_k(i)),   w_i = weight / (1 + (u_i / tolerance)²)      (M4)
 
-    psi solved with the poses (it starts at :func:`structure_axis` of the experiences), u_i the residual at the
-    call's start (a Cauchy weighting, fixed within a call and updated at the next). The odometry's heading
+    psi_k the map's directions of lines, solved with the poses (they start at :func:`structure_axes` of the
+    experiences: one, as the lines of most buildings run, or up to ``structure.families`` where the readings
+    cluster round more), k(i) the direction nearest experience i's reading and u_i its residual at the call's
+    start (a Cauchy weighting, fixed within a call and updated at the next). The odometry's heading
     drifts; the lines' does not, so these residuals hold the map's heading where no loop closes.
 
     With ``views`` (eq. M6, not in the NeuroSLAM paper), each experience made on a familiar view adds a residual
@@ -200,12 +256,14 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
     with_structure = structure is not None and len(structure.experiences) > 0
     if with_structure:
         seen, orientations = np.asarray(structure.experiences, dtype=np.int64), np.asarray(structure.orientations)
-        axis = structure_axis(poses[seen, 3], orientations, structure.tolerance)
-        start = quarter_wrap(poses[seen, 3] + orientations - axis)
+        axis = structure_axes(poses[seen, 3], orientations, structure.tolerance, structure.families)
+        # each experience held to the direction nearest its reading at the call's start
+        family = np.argmin(np.abs(quarter_wrap(poses[seen, 3:4] + orientations[:, None] - axis[None, :])), axis=1)
+        start = quarter_wrap(poses[seen, 3] + orientations - axis[family])
         root_structure = np.sqrt(structure.weight / (1 + (start / structure.tolerance) ** 2))
         structure_rows = 4 * count + len(across) + np.arange(len(seen))
     else:
-        axis = 0.0
+        axis, family = np.zeros(0), np.zeros(0, dtype=np.int64)
     # eq. M6: rows after eq. M4's
     with_views = views is not None and len(views.targets) > 0
     if with_views:
@@ -215,9 +273,9 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
         start = wrap(poses[view_sources, 3] + view_facings - poses[view_targets, 3])
         root_views = np.sqrt(view_heading_weights(start, views.weight, views.tolerance))
         view_rows = 4 * count + len(across) + (len(seen) if with_structure else 0) + np.arange(len(view_targets))
-    variables = 4 * n + int(with_structure)
+    variables = 4 * n + len(axis)
 
-    def residual_at(poses: np.ndarray, axis: float) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+    def residual_at(poses: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
         blocks, cos, sin = _link_residuals(poses, sources, targets, link_poses, root_weight, root_length)
         direction = poses[sources[across], 3] + link_poses[across, 1]
         across_cos, across_sin = np.cos(direction), np.sin(direction)
@@ -225,7 +283,7 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
         apart_y = poses[sources[across], 1] - poses[targets[across], 1]
         blocks.append((across_cos * apart_y - across_sin * apart_x) * root_across)
         if with_structure:
-            blocks.append(quarter_wrap(poses[seen, 3] + orientations - axis) * root_structure)
+            blocks.append(quarter_wrap(poses[seen, 3] + orientations - axis[family]) * root_structure)
         if with_views:
             blocks.append(wrap(poses[view_sources, 3] + view_facings - poses[view_targets, 3]) * root_views)
         return np.concatenate(blocks), (cos, sin, across_cos, across_sin, apart_x, apart_y)
@@ -241,7 +299,7 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
                                           -(across_cos * apart_x + across_sin * apart_y)]) * np.tile(root_across, 5)]
         if with_structure:
             rows += [structure_rows, structure_rows]
-            columns += [4 * seen + 3, np.full(len(seen), 4 * n)]
+            columns += [4 * seen + 3, 4 * n + family]
             values += [root_structure, -root_structure]
         if with_views:
             rows += [view_rows, view_rows]
@@ -259,7 +317,7 @@ def solve_least_squares(poses: np.ndarray, sources: np.ndarray, targets: np.ndar
         normal = (jacobian.T @ jacobian).tocsc()
         factor = scipy.sparse.linalg.splu(normal)  # COLAMD ordering: about 2x faster than spsolve's here
         full_step = factor.solve(-(jacobian.T @ residual))
-        step, axis_step = full_step[: 4 * (n - 1)].reshape(n - 1, 4), float(full_step[4 * (n - 1):].sum())
+        step, axis_step = full_step[: 4 * (n - 1)].reshape(n - 1, 4), full_step[4 * (n - 1):]
         # backtracking: a full step can overshoot where the links disagree grossly (the yaw coupling is
         # far from linear), so the step is halved until the total squared link error does not rise
         scale = 1.0

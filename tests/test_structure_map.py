@@ -9,7 +9,7 @@ from neuroslam.config import ExperienceMapConfig
 from neuroslam.errors import InvalidParameterError
 from neuroslam.experience_map import ExperienceMap
 from neuroslam.geometry import quarter_wrap
-from neuroslam.relaxation import StructureTerms, solve_least_squares, structure_axis
+from neuroslam.relaxation import StructureTerms, solve_least_squares, structure_axes, structure_axis
 
 
 def _drifting_walk(seed: int, steps: int = 400, step: float = 0.5, drift: float = 0.009):
@@ -47,7 +47,7 @@ def _position_error(poses, truth):
     return float(np.sqrt(np.mean(np.sum((poses[:, :2] - truth[:, :2]) ** 2, axis=1))))
 
 
-def _solved_as_driven(odometry, sources, targets, link_poses, structure, every=20):
+def _solved_as_driven(odometry, sources, targets, link_poses, structure, every=20, families=1):
     """The chain solved as the map solves it while driving: every ``every`` links (10 m of half-metre links,
     ``structure_interval``) the experiences so far, the new ones laid by the odometry from the last solved pose."""
     poses = odometry[:1].copy()
@@ -59,7 +59,8 @@ def _solved_as_driven(odometry, sources, targets, link_poses, structure, every=2
             direction = poses[k, 3] + heading
             poses = np.vstack([poses, [poses[k, 0] + distance * math.cos(direction),
                                        poses[k, 1] + distance * math.sin(direction), 0.0, poses[k, 3] + facing]])
-        terms = StructureTerms(np.arange(end), structure[:end], weight=0.05, tolerance=math.radians(2.0))
+        terms = StructureTerms(np.arange(end), structure[:end], weight=0.05, tolerance=math.radians(2.0),
+                               families=families)
         poses = _solve(poses, sources[: end - 1], targets[: end - 1], link_poses[: end - 1], terms)
     return poses
 
@@ -91,6 +92,47 @@ def test_lines_hold_a_drifting_heading_without_a_loop_closure():
                                                                                             abs=math.radians(1.5))
     assert np.median(ratios) < 0.25 and max(ratios) < 0.6, ratios
     assert np.median(heading_errors) < math.radians(1.0), np.degrees(heading_errors)
+
+
+def test_structure_axes_finds_each_direction_the_lines_run_along():
+    # a car park's lanes at 17° and its bays painted at 60° to them (-13°, modulo 90°), read with 1° of scatter,
+    # and a tenth of the readings misread by 10–40° to one side
+    rng = np.random.default_rng(3)
+    lanes, bays = math.radians(17.0), math.radians(-13.0)
+    readings = np.r_[rng.normal(lanes, math.radians(1.0), 120), rng.normal(bays, math.radians(1.0), 90),
+                     lanes + rng.uniform(math.radians(10), math.radians(40), 21)]
+    yaws = rng.uniform(-math.pi, math.pi, len(readings))  # any heading: a reading is yaw plus orientation
+    orientations = quarter_wrap(readings - yaws)
+    tolerance = math.radians(2.0)
+    one, two, four = (structure_axes(yaws, orientations, tolerance, families) for families in (1, 2, 4))
+    assert one == pytest.approx([lanes], abs=math.radians(0.5))  # the stronger, not a mean between the two
+    assert two == pytest.approx([lanes, bays], abs=math.radians(0.5))
+    assert len(four) == 2  # the misreads are no third direction
+    # a single direction with its misreads is one direction however many are allowed; near ±45° the two ends of
+    # the range are one direction
+    single = np.r_[rng.normal(math.radians(44.5), math.radians(1.0), 200), rng.uniform(-0.5, 0.5, 20)]
+    found = structure_axes(np.zeros(len(single)), single, tolerance, 4)
+    assert len(found) == 1 and abs(quarter_wrap(found[0] - math.radians(44.5))) < math.radians(0.5)
+
+
+def test_two_directions_of_lines_hold_a_drifting_heading():
+    # the drifting walk of the first test where stretches of 25 experiences (12.5 m) see lines along two directions
+    # 30° apart (lanes, then bays): each experience is held to the direction nearest its reading, and the
+    # heading is held better than with one direction, where half the readings count next to nothing (eight noise
+    # draws; measured: position error to 0.04–0.37 of the lines-free solve's, 0.05 in the median, against 0.06–0.68
+    # and 0.22 with one direction)
+    ratios = {1: [], 2: []}
+    for seed in range(8):
+        truth, sources, targets, link_poses, odometry = _drifting_walk(seed)
+        rng = np.random.default_rng(200 + seed)
+        axes = np.where((np.arange(len(truth)) // 25) % 2 == 0, math.radians(17.0), math.radians(-13.0))
+        orientations = quarter_wrap(axes - truth[:, 3] + rng.normal(0.0, math.radians(1.0), len(truth)))
+        before = _position_error(_solve(odometry.copy(), sources, targets, link_poses), truth)
+        for families in ratios:
+            held = _solved_as_driven(odometry, sources, targets, link_poses, orientations, families=families)
+            ratios[families].append(_position_error(held, truth) / before)
+    assert np.median(ratios[2]) < 0.1 and max(ratios[2]) < 0.5, ratios
+    assert np.median(ratios[2]) < np.median(ratios[1]) / 2, ratios
 
 
 def test_without_lines_the_solve_is_the_links_alone():
@@ -140,7 +182,8 @@ def test_a_map_driving_without_closures_solves_every_interval_with_lines():
 
 
 @pytest.mark.parametrize("field, value", [("structure_weight", -0.1), ("structure_tolerance", 0.0),
-                                          ("structure_interval", math.nan)])
+                                          ("structure_interval", math.nan), ("structure_families", 0),
+                                          ("structure_families", 1.5), ("structure_families", True)])
 def test_bad_structure_settings_name_the_field(field, value):
     with pytest.raises(InvalidParameterError, match=f"experience_map.{field}"):
         ExperienceMapConfig(**{field: value})

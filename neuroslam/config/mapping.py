@@ -158,6 +158,9 @@ class ExperienceMapConfig:
             at one every half metre, which share one error, so each counts a fifth.
         structure_tolerance: rad, the Cauchy scale of eq. M4: an orientation this far from the map's counts
             half (a wall's foot or a ramp's edge read as a floor line). 2°, the lines' per-frame scatter.
+        structure_families: the most directions of lines (modulo 90°) eq. M4 holds the map to
+            (:func:`~neuroslam.relaxation.structure_axes`): each experience is held to the nearest. 1: one
+            direction and its perpendicular.
         view_heading_weight: weight of eq. M6's residual (rad²) per experience made on a familiar view, relative
             to a driven link's yaw error; 0 leaves it out (the paper's map). Eq. M6 (:mod:`neuroslam.relaxation`)
             holds the experience's yaw to the yaw the view was learned at plus the view's relative yaw (the
@@ -225,6 +228,7 @@ class ExperienceMapConfig:
     closure_weight: float = 0.1
     structure_weight: float = 0.01
     structure_tolerance: float = math.radians(2.0)
+    structure_families: int = 1
     structure_interval: float = 10.0
     view_heading_weight: float = 0.0
     view_heading_tolerance: float = math.radians(5.0)
@@ -270,6 +274,9 @@ class ExperienceMapConfig:
                 isinstance(self.confirmation_pinned_yaw, bool), "must be true or false")
         require(f"{path}.closure_window_pose", self.closure_window_pose,
                 isinstance(self.closure_window_pose, bool), "must be true or false")
+        require(f"{path}.structure_families", self.structure_families,
+                isinstance(self.structure_families, int) and not isinstance(self.structure_families, bool)
+                and 1 <= self.structure_families <= 4, "must be an integer from 1 to 4")
         views = self.confirmation_views
         require(f"{path}.confirmation_views", views,
                  isinstance(views, int) and not isinstance(views, bool) and 1 <= views <= 100,

@@ -70,7 +70,8 @@ def test_worlds_have_several_levels_joined_by_gentle_ramps(name):
 
 
 def test_the_benchmark_has_hand_written_worlds():
-    assert [Path(name).stem for name in HANDWRITTEN_WORLDS] == ["angled_carpark", "dim_gallery", "terrace_garden"]
+    assert [Path(name).stem for name in HANDWRITTEN_WORLDS] == ["angled_carpark", "dim_gallery", "terrace_garden",
+                                                                     "turned_wing"]
 
 
 def _distance_to_route(points: np.ndarray, waypoints: np.ndarray) -> np.ndarray:

@@ -143,8 +143,11 @@ def structure_axes(yaws: np.ndarray, orientations: np.ndarray, tolerance: float,
     :data:`STRUCTURE_AXIS_ITERATIONS` means of the errors weighted by c (the Cauchy M-estimate). A circular
     mean, :func:`structure_axis`'s start, would lie between two clusters, and its refinement stop there. A
     further direction counts where its support (the sum of c over those readings) is at least
-    :data:`STRUCTURE_FAMILY_SHARE` of the first's (over all readings); otherwise the search stops.
+    :data:`STRUCTURE_FAMILY_SHARE` of the first's (over all readings); otherwise the search stops. With
+    ``families`` 1 the one direction is :func:`structure_axis`'s, as eq. M4 was first written.
     """
+    if families == 1:  # eq. M4 as first written
+        return np.array([structure_axis(yaws, orientations, tolerance)])
     directions = quarter_wrap(np.asarray(yaws, dtype=float) + np.asarray(orientations, dtype=float))
     bins = max(int(round(math.pi / 2 / (tolerance / 10))), 1)
     width = math.pi / 2 / bins

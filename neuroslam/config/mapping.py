@@ -159,8 +159,13 @@ class ExperienceMapConfig:
         structure_tolerance: rad, the Cauchy scale of eq. M4: an orientation this far from the map's counts
             half (a wall's foot or a ramp's edge read as a floor line). 2°, the lines' per-frame scatter.
         structure_families: the most directions of lines (modulo 90°) eq. M4 holds the map to
-            (:func:`~neuroslam.relaxation.structure_axes`): each experience is held to the nearest. 1: one
-            direction and its perpendicular.
+            (:func:`~neuroslam.relaxation.structure_axes`): each experience is held to the nearest, and a further
+            direction counts only where its readings hold half the first's support. 1: one direction and its
+            perpendicular, as eq. M4 was first written. 2 holds a building laid along two
+            directions, a wing turned against the main block or bays painted at an angle to the lanes (measured in
+            docs/generalization.md, the fifty-seventh step; the default once the wheels' benchmark and the
+            closed-loop tests have run on it); each direction beyond is one more chance for a drifted stretch of a
+            blind map to be held to its own drift.
         view_heading_weight: weight of eq. M6's residual (rad²) per experience made on a familiar view, relative
             to a driven link's yaw error; 0 leaves it out (the paper's map). Eq. M6 (:mod:`neuroslam.relaxation`)
             holds the experience's yaw to the yaw the view was learned at plus the view's relative yaw (the

@@ -105,7 +105,7 @@ def test_structure_axes_finds_each_direction_the_lines_run_along():
     orientations = quarter_wrap(readings - yaws)
     tolerance = math.radians(2.0)
     one, two, four = (structure_axes(yaws, orientations, tolerance, families) for families in (1, 2, 4))
-    assert one == [structure_axis(yaws, orientations, tolerance)]  # one direction: as eq. M4 was first written
+    assert np.array_equal(one, [structure_axis(yaws, orientations, tolerance)])  # as eq. M4 was first written
     assert two == pytest.approx([lanes, bays], abs=math.radians(0.5))  # the stronger first, not a mean between
     assert len(four) == 2  # the misreads are no third direction
     # a single direction with its misreads is one direction however many are allowed; near ±45° the two ends of

@@ -163,9 +163,9 @@ class ExperienceMapConfig:
             direction counts only where its readings hold half the first's support. 1: one direction and its
             perpendicular, as eq. M4 was first written. 2 holds a building laid along two
             directions, a wing turned against the main block or bays painted at an angle to the lanes (measured in
-            docs/generalization.md, the fifty-seventh step; the default once the wheels' benchmark and the
-            closed-loop tests have run on it); each direction beyond is one more chance for a drifted stretch of a
-            blind map to be held to its own drift.
+            docs/generalization.md, the fifty-seventh step: the 43 camera only and with the wheels as before, the
+            hand-written car park with the wheels 2.85 → 0.48 m; not yet the default); each direction beyond is one
+            more chance for a drifted stretch of a blind map to be held to its own drift.
         view_heading_weight: weight of eq. M6's residual (rad²) per experience made on a familiar view, relative
             to a driven link's yaw error; 0 leaves it out (the paper's map). Eq. M6 (:mod:`neuroslam.relaxation`)
             holds the experience's yaw to the yaw the view was learned at plus the view's relative yaw (the

@@ -161,11 +161,11 @@ class ExperienceMapConfig:
         structure_families: the most directions of lines (modulo 90°) eq. M4 holds the map to
             (:func:`~neuroslam.relaxation.structure_axes`): each experience is held to the nearest, and a further
             direction counts only where its readings hold half the first's support. 1: one direction and its
-            perpendicular, as eq. M4 was first written. 2 holds a building laid along two
+            perpendicular, as eq. M4 was first written. 2 (the default) holds a building laid along two
             directions, a wing turned against the main block or bays painted at an angle to the lanes (measured in
-            docs/generalization.md, the fifty-seventh step: the 43 camera only and with the wheels as before, the
-            hand-written car park with the wheels 2.85 → 0.48 m; not yet the default); each direction beyond is one
-            more chance for a drifted stretch of a blind map to be held to its own drift.
+            docs/generalization.md, the fifty-seventh and fifty-eighth steps: the 43 camera only and with the
+            wheels as with 1, the hand-written car park with the wheels 2.85 → 0.48 m); each direction beyond is
+            one more chance for a drifted stretch of a blind map to be held to its own drift.
         view_heading_weight: weight of eq. M6's residual (rad²) per experience made on a familiar view, relative
             to a driven link's yaw error; 0 leaves it out (the paper's map). Eq. M6 (:mod:`neuroslam.relaxation`)
             holds the experience's yaw to the yaw the view was learned at plus the view's relative yaw (the
@@ -233,7 +233,7 @@ class ExperienceMapConfig:
     closure_weight: float = 0.1
     structure_weight: float = 0.01
     structure_tolerance: float = math.radians(2.0)
-    structure_families: int = 1
+    structure_families: int = 2
     structure_interval: float = 10.0
     view_heading_weight: float = 0.0
     view_heading_tolerance: float = math.radians(5.0)

@@ -182,6 +182,33 @@ def test_a_confirmed_place_is_the_one_re_entered_not_the_neighbour_whose_codes_l
     assert not followed.loop_closure and followed.experience_id == 1
 
 
+@pytest.mark.parametrize("keeps_pose", [False, True])
+def test_following_the_map_puts_the_robot_where_its_codes_or_its_map_pose_say(keeps_pose):
+    """Experiences 0–3 every 3 m along +x (views 7–10, codes 0–9 cells of 1 m); a loop closes back at experience 0.
+    The robot drives 3 m on (truly at x = 3), its grid code drifted to 3.6: eq. 22 re-enters experience 1, linked
+    to 0 (the robot follows the map; no loop closure). By the codes (the default) the robot is 0.6 m past 1, at
+    x = 3.6; with ``reentry_keeps_pose`` it stays where the map had it, x = 3. Driven 2 m on to a new view, the
+    new experience and its link from experience 1 carry that."""
+    experience_map = ExperienceMap(ExperienceMapConfig(threshold=1.0, relaxation="passes", relaxation_passes=0,
+                                                       idle_passes=0, reentry_keeps_pose=keeps_pose))
+    for k in range(4):
+        experience_map.integrate(3.0 if k else 0.0, 0.0, 0.0)
+        assert experience_map.update(7 + k, np.array([3.0 * k, 0.0, 0.0]), np.zeros(2), float(k)).new_experience
+    closed = experience_map.update(7, np.zeros(3), np.zeros(2), 4.0, place=0)
+    assert closed.loop_closure and closed.experience_id == 0
+    experience_map.integrate(3.0, 0.0, 0.0)
+    followed = experience_map.update(8, np.array([3.6, 0.0, 0.0]), np.zeros(2), 5.0)
+    assert not followed.loop_closure and not followed.new_experience and followed.experience_id == 1
+    x = 3.0 if keeps_pose else 3.6
+    assert experience_map.robot_pose() == pytest.approx([x, 0.0, 0.0, 0.0], abs=1e-9)
+    experience_map.integrate(2.0, 0.0, 0.0)
+    made = experience_map.update(11, np.array([20.0, 0.0, 0.0]), np.zeros(2), 6.0)
+    assert made.new_experience
+    assert experience_map.poses[made.experience_id] == pytest.approx([x + 2.0, 0.0, 0.0, 0.0], abs=1e-9)
+    assert tuple(experience_map.links[-1]) == (1, made.experience_id)
+    assert experience_map.link_poses[-1] == pytest.approx([x - 1.0, 0.0, 0.0, 0.0], abs=1e-9)
+
+
 def _link_pose(source: np.ndarray, target: np.ndarray) -> tuple[float, float, float, float]:
     """Eq. 23's link (distance, heading, facing, height) that puts ``target`` exactly where it is from ``source``."""
     dx, dy = target[:2] - source[:2]

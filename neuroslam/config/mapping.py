@@ -132,6 +132,12 @@ class ExperienceMapConfig:
             the place, with the codes moved only where they lie farther from it than ``threshold`` (about 2 m or
             10° with the ``sim`` preset), and otherwise kept, the robot's own drifted estimate near the place
             giving the closure's offset.
+        reentry_keeps_pose: where the robot is when it re-enters an experience without closing a loop (eq. 22's
+            match on an experience linked to the current one: the robot follows the map). True: where it was in
+            the map, its pose re-expressed against the experience (the odometry since the last experience goes on
+            from there). False (the default): where the difference of the codes puts it
+            (:meth:`~neuroslam.experience_map.ExperienceMap._offset`), which the link the robot drives next from
+            that experience then carries.
         confirmation_pinned_yaw: a loop closure turns the robot onto its place by the view's yaw relative to its
             template only where the view's match pins that yaw (eq. M6's rule: its difference below half its
             template's column contrast); elsewhere the robot keeps the odometry's heading, and the hypotheses
@@ -226,6 +232,7 @@ class ExperienceMapConfig:
     confirmation_pinned_yaw: bool = True
     confirmation_rival_odds: float = 0.0
     closure_window_pose: bool = False
+    reentry_keeps_pose: bool = False
     confirmation_tolerance: float = 1.0
     confirmation_age: float = 30.0
     confirmation_drift: float = 0.1
@@ -279,6 +286,8 @@ class ExperienceMapConfig:
                 isinstance(self.confirmation_pinned_yaw, bool), "must be true or false")
         require(f"{path}.closure_window_pose", self.closure_window_pose,
                 isinstance(self.closure_window_pose, bool), "must be true or false")
+        require(f"{path}.reentry_keeps_pose", self.reentry_keeps_pose,
+                isinstance(self.reentry_keeps_pose, bool), "must be true or false")
         require(f"{path}.structure_families", self.structure_families,
                 isinstance(self.structure_families, int) and not isinstance(self.structure_families, bool)
                 and 1 <= self.structure_families <= 4, "must be an integer from 1 to 4")

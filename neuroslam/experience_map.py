@@ -394,7 +394,6 @@ class ExperienceMap(MapSessionsMixin):
             return MapUpdate(self.current, False, False)
         closes_loop = closes_loop and not on_the_spot
         previous = self.current
-        here = self.robot_pose()
         offset = self._offset(best, grid_code, direction_code)
         if closes_loop:
             # the robot is at previous ⊕ odometry and at best ⊕ offset, so best = previous ⊕ odometry ⊖ offset
@@ -408,11 +407,13 @@ class ExperienceMap(MapSessionsMixin):
             trigger = LEAST_SQUARES_TRIGGER if self.config.relaxation == "least-squares" else SETTLED
             if np.abs(error).max() >= trigger:
                 self._settled = False
-        self.current = best
         # re-entering without a loop closure (the robot follows the map): with reentry_keeps_pose the robot stays
         # where it was in the map, re-expressed against the experience; else it goes where the codes say
-        keep = self.config.reentry_keeps_pose and not closes_loop
-        self.relative = compose(inverse(self.poses[best]), here) if keep else offset
+        if self.config.reentry_keeps_pose and not closes_loop:
+            self.relative = compose(inverse(self.poses[best]), self.robot_pose())
+        else:
+            self.relative = offset
+        self.current = best
         self._restart_link()
         self._relax(self.config.relaxation_passes if closes_loop else self.config.idle_passes)
         return MapUpdate(best, False, closes_loop)

@@ -90,6 +90,10 @@ class ExperienceMap(MapSessionsMixin):
         self._settled = True
         self.current = -1
         self.relative = np.zeros(4)  # odometric pose of the robot in the current experience's frame
+        # the robot's pose in the current experience's frame as the next link carries it: the odometry since the last
+        # experience made or closed onto, re-expressed on each re-entry; differs from relative only with
+        # reentry_links_driven (a re-entry places the robot by the codes, but the link keeps the driven path)
+        self.driven = np.zeros(4)
         self.loop_closures = 0
         self.component = 0  # the map the robot is in: new experiences join it, only its experiences match
         self.session = 0  # the current session (see begin_session)
@@ -218,6 +222,7 @@ class ExperienceMap(MapSessionsMixin):
         """Experiences, links and the robot's place among them, for saving (:meth:`load_state_dict`)."""
         state = {name: getattr(self, attribute).view.copy() for name, (attribute, _, _) in STATE_ARRAYS.items()}
         state.update(settled=np.bool_(self._settled), current=np.int64(self.current), relative=self.relative.copy(),
+                     driven=self.driven.copy(),
                      loop_closures=np.int64(self.loop_closures), component=np.int64(self.component),
                      session=np.int64(self.session), odometer=np.float64(self.odometer),
                      structure_odometer=np.float64(self._structure_odometer),
@@ -267,6 +272,7 @@ class ExperienceMap(MapSessionsMixin):
         self._settled = bool(state["settled"])
         self.current = current
         self.relative = relative.copy()
+        self.driven = np.asarray(state.get("driven", relative), dtype=float).copy()  # saved before: the same
         self.loop_closures = int(state["loop_closures"])
         self.component = int(state["component"])
         self.session = int(state["session"])
@@ -300,8 +306,9 @@ class ExperienceMap(MapSessionsMixin):
         (rad) turns the direction of travel off the heading (the grid network's read-out, grid-network eq. 5);
         ``blind_time``: s of this frame on which nothing observed the distance (it was held or is zero; the
         frame's interval or 0), counted for the link the odometry will make (eq. M5)."""
-        heading = self.relative[3] + yaw_change / 2 + drift
-        self.relative += [distance * math.cos(heading), distance * math.sin(heading), height_change, yaw_change]
+        for pose in (self.relative, self.driven):
+            heading = pose[3] + yaw_change / 2 + drift
+            pose += [distance * math.cos(heading), distance * math.sin(heading), height_change, yaw_change]
         self.odometer += abs(distance)
         self._blind_since += blind_time
 
@@ -360,6 +367,7 @@ class ExperienceMap(MapSessionsMixin):
             self._create(template_id, grid_code, direction_code, time, pose=self.relative.copy(),
                          structure=structure, view=view)
             self.relative[:] = 0
+            self.driven[:] = 0
             self._restart_link()
             return MapUpdate(self.current, True, False)
         candidates = self._candidates(template_id)
@@ -383,6 +391,7 @@ class ExperienceMap(MapSessionsMixin):
                          view=view)
             self._link(previous, self.current, time)
             self.relative[:] = 0
+            self.driven[:] = 0
             self._restart_link()
             if along_path >= 0:
                 self._link_along_path(along_path, along_path_yaw, time)
@@ -397,7 +406,8 @@ class ExperienceMap(MapSessionsMixin):
         offset = self._offset(best, grid_code, direction_code)
         if closes_loop:
             # the robot is at previous ⊕ odometry and at best ⊕ offset, so best = previous ⊕ odometry ⊖ offset
-            self.relative = compose(self.relative, inverse(offset))
+            self.relative = compose(self.driven, inverse(offset))
+            self.driven = self.relative.copy()
             # the loop's error: where the odometry puts the re-entered experience against where it is
             expected = compose(self.poses[previous], self.relative)
             error = expected - self.poses[best]
@@ -409,10 +419,16 @@ class ExperienceMap(MapSessionsMixin):
                 self._settled = False
         # re-entering without a loop closure (the robot follows the map): with reentry_keeps_pose the robot stays
         # where it was in the map, re-expressed against the experience; else it goes where the codes say
+        # (with reentry_links_driven the robot goes where the codes say, but the next link keeps the driven path)
         if self.config.reentry_keeps_pose and not closes_loop:
             self.relative = compose(inverse(self.poses[best]), self.robot_pose())
+            self.driven = self.relative.copy()
+        elif self.config.reentry_links_driven and not closes_loop:
+            self.driven = compose(inverse(self.poses[best]), compose(self.poses[previous], self.driven))
+            self.relative = offset
         else:
             self.relative = offset
+            self.driven = offset.copy()
         self.current = best
         self._restart_link()
         self._relax(self.config.relaxation_passes if closes_loop else self.config.idle_passes)
@@ -484,7 +500,7 @@ class ExperienceMap(MapSessionsMixin):
         """Link ``source`` → ``target`` with the odometry accumulated since ``source`` (NeuroSLAM eq. 23), or with
         ``relative`` (``target``'s pose in ``source``'s frame) and ``blind`` seconds; ``weight`` scales its
         squared errors in the least-squares map."""
-        dx, dy, dz, dyaw = self.relative if relative is None else relative
+        dx, dy, dz, dyaw = self.driven if relative is None else relative
         distance = math.hypot(dx, dy)
         # a link read as no travel (the distance blind) points the way the robot faced halfway along it (eq. M5)
         if heading is None:

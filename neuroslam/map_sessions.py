@@ -56,6 +56,7 @@ class MapSessionsMixin:
         self.component = int(self.components.max()) + 1 if self.size else self.component
         self.current = -1
         self.relative = np.zeros(4)
+        self.driven = np.zeros(4)
         self.odometer = 0.0
         self._restart_link()
 
@@ -65,6 +66,7 @@ class MapSessionsMixin:
         self.current = int(experience)
         self.component = int(self.components[experience])
         self.relative = np.asarray(relative, dtype=float).copy()
+        self.driven = self.relative.copy()
         self._restart_link()
 
     def linked(self, first: int, second: int) -> bool:
@@ -121,6 +123,7 @@ class MapSessionsMixin:
         if self.current >= 0:
             robot = self.robot_pose()
             self.relative = compose(inverse(self.poses[replacement[self.current]]), robot)
+            self.driven = self.relative.copy()
             self.current = int(remap[self.current])
         links = remap[self.links]
         joined = links[:, 0] != links[:, 1]

@@ -57,6 +57,7 @@ def test_presets_exist_and_differ():
     ({"experience_map": {"confirmation_rival_spread": 2.5}}, "experience_map.confirmation_rival_spread", "(0, 2]"),
     ({"experience_map": {"confirmation_drift": -0.1}}, "experience_map.confirmation_drift", ">= 0"),
     ({"experience_map": {"reentry_keeps_pose": "yes"}}, "experience_map.reentry_keeps_pose", "true or false"),
+    ({"experience_map": {"reentry_links_driven": 1}}, "experience_map.reentry_links_driven", "true or false"),
     ({"integrator": "pose-cells"}, "integrator", "odometry, grid-network"),
     ({"grid_network": {"size": 8}}, "grid_network.size", "from 16 to 1024"),
     ({"grid_network": {"time_step": 10}}, "grid_network.time_step", "time_constant"),

@@ -182,15 +182,17 @@ def test_a_confirmed_place_is_the_one_re_entered_not_the_neighbour_whose_codes_l
     assert not followed.loop_closure and followed.experience_id == 1
 
 
-@pytest.mark.parametrize("keeps_pose", [False, True])
-def test_following_the_map_puts_the_robot_where_its_codes_or_its_map_pose_say(keeps_pose):
+@pytest.mark.parametrize(("keeps_pose", "links_driven"), [(False, False), (True, False), (False, True)])
+def test_following_the_map_puts_the_robot_where_its_codes_or_its_map_pose_say(keeps_pose, links_driven):
     """Experiences 0–3 every 3 m along +x (views 7–10, codes 0–9 cells of 1 m); a loop closes back at experience 0.
     The robot drives 3 m on (truly at x = 3), its grid code drifted to 3.6: eq. 22 re-enters experience 1, linked
     to 0 (the robot follows the map; no loop closure). By the codes (the default) the robot is 0.6 m past 1, at
     x = 3.6; with ``reentry_keeps_pose`` it stays where the map had it, x = 3. Driven 2 m on to a new view, the
-    new experience and its link from experience 1 carry that."""
+    new experience is made where the robot is, and its link from experience 1 carries that place, or with
+    ``reentry_links_driven`` the driven path (x = 3 + 2, 2 m past experience 1) wherever the codes put the robot."""
     experience_map = ExperienceMap(ExperienceMapConfig(threshold=1.0, relaxation="passes", relaxation_passes=0,
-                                                       idle_passes=0, reentry_keeps_pose=keeps_pose))
+                                                       idle_passes=0, reentry_keeps_pose=keeps_pose,
+                                                       reentry_links_driven=links_driven))
     for k in range(4):
         experience_map.integrate(3.0 if k else 0.0, 0.0, 0.0)
         assert experience_map.update(7 + k, np.array([3.0 * k, 0.0, 0.0]), np.zeros(2), float(k)).new_experience
@@ -206,7 +208,8 @@ def test_following_the_map_puts_the_robot_where_its_codes_or_its_map_pose_say(ke
     assert made.new_experience
     assert experience_map.poses[made.experience_id] == pytest.approx([x + 2.0, 0.0, 0.0, 0.0], abs=1e-9)
     assert tuple(experience_map.links[-1]) == (1, made.experience_id)
-    assert experience_map.link_poses[-1] == pytest.approx([x - 1.0, 0.0, 0.0, 0.0], abs=1e-9)
+    link_x = 3.0 if keeps_pose or links_driven else 3.6
+    assert experience_map.link_poses[-1] == pytest.approx([link_x - 1.0, 0.0, 0.0, 0.0], abs=1e-9)
 
 
 def _link_pose(source: np.ndarray, target: np.ndarray) -> tuple[float, float, float, float]:

@@ -143,6 +143,15 @@ class ExperienceMapConfig:
             1.34 m), no target count changed; multisession 3 -> 4 of 5; with the wheels 0.60 / 1.21 / 2.00 ->
             0.58 / 0.94 / 1.22 m (median / p90 / worst), 43 of 43; but two hand-written worlds worse (the terrace
             with the wheels 0.49 -> 0.60 m): not yet the default (docs/generalization.md, the fifty-ninth step).
+        reentry_links_driven: with ``reentry_keeps_pose`` off, a re-entry still puts the robot where the codes
+            say (its estimate, and the frames' places in the map), but the next link from the experience (to a
+            new experience, or a loop closure) carries the driven path: the odometry since the last experience
+            made or closed onto, re-expressed against each experience re-entered on the way through the map's
+            poses (:attr:`~neuroslam.experience_map.ExperienceMap.driven`). The links lose the code-read place
+            as with ``reentry_keeps_pose``, while a robot following a map that a loop closure bent stays on it
+            (with ``reentry_keeps_pose`` on two laps of a synthetic square it parts from its first lap by 2 m in
+            the median, ``tests/test_slam.py``). False (the default): the link starts at the code-read place.
+            docs/generalization.md, the sixtieth step.
         confirmation_pinned_yaw: a loop closure turns the robot onto its place by the view's yaw relative to its
             template only where the view's match pins that yaw (eq. M6's rule: its difference below half its
             template's column contrast); elsewhere the robot keeps the odometry's heading, and the hypotheses
@@ -238,6 +247,7 @@ class ExperienceMapConfig:
     confirmation_rival_odds: float = 0.0
     closure_window_pose: bool = False
     reentry_keeps_pose: bool = False
+    reentry_links_driven: bool = False
     confirmation_tolerance: float = 1.0
     confirmation_age: float = 30.0
     confirmation_drift: float = 0.1
@@ -293,6 +303,8 @@ class ExperienceMapConfig:
                 isinstance(self.closure_window_pose, bool), "must be true or false")
         require(f"{path}.reentry_keeps_pose", self.reentry_keeps_pose,
                 isinstance(self.reentry_keeps_pose, bool), "must be true or false")
+        require(f"{path}.reentry_links_driven", self.reentry_links_driven,
+                isinstance(self.reentry_links_driven, bool), "must be true or false")
         require(f"{path}.structure_families", self.structure_families,
                 isinstance(self.structure_families, int) and not isinstance(self.structure_families, bool)
                 and 1 <= self.structure_families <= 4, "must be an integer from 1 to 4")

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import geometry
 from .arrays import GrowingArray
 from .cells.attractor import wrapped_distance
 from .config import ExperienceMapConfig
@@ -417,18 +418,15 @@ class ExperienceMap(MapSessionsMixin):
             trigger = LEAST_SQUARES_TRIGGER if self.config.relaxation == "least-squares" else SETTLED
             if np.abs(error).max() >= trigger:
                 self._settled = False
-        # re-entering without a loop closure (the robot follows the map): with reentry_keeps_pose the robot stays
-        # where it was in the map, re-expressed against the experience; else it goes where the codes say
-        # (with reentry_links_driven the robot goes where the codes say, but the next link keeps the driven path)
-        if self.config.reentry_keeps_pose and not closes_loop:
-            self.relative = compose(inverse(self.poses[best]), self.robot_pose())
-            self.driven = self.relative.copy()
-        elif self.config.reentry_links_driven and not closes_loop:
-            self.driven = compose(inverse(self.poses[best]), compose(self.poses[previous], self.driven))
-            self.relative = offset
-        else:
+        # re-entering without a loop closure (the robot follows the map): with either option the driven path goes on
+        # from the re-entered experience, re-expressed against it; with reentry_keeps_pose the robot stays there
+        # too (driven and relative stay equal), else it goes where the codes say
+        if closes_loop or not (self.config.reentry_keeps_pose or self.config.reentry_links_driven):
             self.relative = offset
             self.driven = offset.copy()
+        else:
+            self.driven = geometry.relative(self.poses[best], compose(self.poses[previous], self.driven))
+            self.relative = self.driven.copy() if self.config.reentry_keeps_pose else offset
         self.current = best
         self._restart_link()
         self._relax(self.config.relaxation_passes if closes_loop else self.config.idle_passes)

@@ -43,10 +43,11 @@ def _profile_odometry(**regions: Region) -> VisualOdometryConfig:
 
 
 def _paper_map(correction: float, relaxation_passes: int) -> ExperienceMapConfig:
-    """The paper's experience map: NeuroSLAM eq. 25's passes, loops closed by NeuroSLAM eq. 22's code match alone."""
+    """The paper's experience map: NeuroSLAM eq. 25's passes, loops closed by NeuroSLAM eq. 22's code match alone,
+    and a link from a re-entered experience starting where the codes place the robot (eq. 22)."""
     return ExperienceMapConfig(correction=correction, relaxation_passes=relaxation_passes, relaxation="passes",
                                loop_closure="code", structure_weight=0.0, view_heading_weight=0.0,
-                               blind_speed_error=0.0)
+                               blind_speed_error=0.0, reentry_links_driven=False)
 
 
 def _sim() -> Config:

@@ -15,6 +15,17 @@ def test_presets_exist_and_differ():
         presets.get("synpn")
 
 
+def test_paper_presets_keep_the_papers_experience_map():
+    """The paper presets close loops by eq. 22's code match and lay a re-entered experience's link from the place
+    the codes read; the ``sim`` preset lays it along the driven path (the sixty-first step)."""
+    assert presets.get("sim").experience_map.reentry_links_driven
+    for name in ("synper", "synpan", "carpark"):
+        experience_map = presets.get(name).experience_map
+        assert experience_map.loop_closure == "code", name
+        assert not experience_map.reentry_links_driven, name
+        assert not experience_map.reentry_keeps_pose, name
+
+
 @pytest.mark.parametrize("data, field, text", [
     ({"grid_cell": {}}, "grid_cell", "did you mean 'grid_cells'"),
     ({"experience_map": {"thresold": 1}}, "experience_map.thresold", "did you mean 'experience_map.threshold'"),

@@ -136,9 +136,10 @@ class ExperienceMapConfig:
             match on an experience linked to the current one: the robot follows the map). True: where it was in
             the map, its pose re-expressed against the experience (the odometry since the last experience goes on
             from there). False (the default): where the difference of the codes puts it
-            (:meth:`~neuroslam.experience_map.ExperienceMap._offset`), which the link the robot drives next from
-            that experience then carries (0.3 m off in the median where a second session follows the first's map,
-            against 0.007 m for a link from an experience the robot made). On the 43 benchmark worlds, camera only,
+            (:meth:`~neuroslam.experience_map.ExperienceMap._offset`), which, with ``reentry_links_driven`` off,
+            the link the robot drives next from that experience then carries (0.3 m off in the median where a
+            second session follows the first's map, against 0.007 m for a link from an experience the robot
+            made). On the 43 benchmark worlds, camera only,
             the median SLAM ATE 1.16 → 0.89 m, better by more than 5 cm on 16 and worse on 7 (gen3:102 0.99 →
             1.34 m), no target count changed; multisession 3 → 4 of 5; with the wheels 0.60 / 1.21 / 2.00 →
             0.58 / 0.94 / 1.22 m (median / p90 / worst), 43 of 43; but a robot that follows a map a loop closure
@@ -152,11 +153,13 @@ class ExperienceMapConfig:
             poses (:attr:`~neuroslam.experience_map.ExperienceMap.driven`). The links lose the code-read place
             as with ``reentry_keeps_pose``, while a robot following a map that a loop closure bent stays on it
             (with ``reentry_keeps_pose`` on two laps of a synthetic square it parts from its first lap by 2 m in
-            the median, ``tests/test_slam.py``). False (the default): the link starts at the code-read place.
-            On the 43 benchmark worlds camera only 1.16 / 4.31 / 15.00 → 0.90 / 4.27 / 15.00 m (median / p90 /
-            worst), 33 of 43 as before; on twenty unseen seeds every target 12 → 13 of 20, gen3:215's 34 false
-            closures gone; not yet judged with the wheels, multisession or the closed-loop tests
-            (docs/generalization.md, the sixtieth step).
+            the median, ``tests/test_slam.py``). True (the default; the paper presets keep it off): on the 43
+            benchmark worlds camera only 1.16 / 4.31 / 15.00 → 0.90 / 4.27 / 15.00 m (median / p90 / worst), 33
+            of 43 as before; on twenty unseen seeds every target 12 → 13 of 20, gen3:215's 34 false closures
+            gone; multisession 3 → 4 of 5 within 1.25 × one session's; with the wheels, on 39 of
+            the 43 (those driven), 0.59 / 1.05 / 2.00 → 0.59 / 1.04 / 1.21 m, every target on all 39
+            (docs/generalization.md, the sixtieth and sixty-first steps). False: the link starts at the
+            code-read place.
         confirmation_pinned_yaw: a loop closure turns the robot onto its place by the view's yaw relative to its
             template only where the view's match pins that yaw (eq. M6's rule: its difference below half its
             template's column contrast); elsewhere the robot keeps the odometry's heading, and the hypotheses
@@ -252,7 +255,7 @@ class ExperienceMapConfig:
     confirmation_rival_odds: float = 0.0
     closure_window_pose: bool = False
     reentry_keeps_pose: bool = False
-    reentry_links_driven: bool = False
+    reentry_links_driven: bool = True
     confirmation_tolerance: float = 1.0
     confirmation_age: float = 30.0
     confirmation_drift: float = 0.1

@@ -156,8 +156,8 @@ class ExperienceMapConfig:
             the median, ``tests/test_slam.py``). True (the default; the paper presets keep it off): on the 43
             benchmark worlds camera only 1.16 / 4.31 / 15.00 → 0.90 / 4.27 / 15.00 m (median / p90 / worst), 33
             of 43 as before; on twenty unseen seeds every target 12 → 13 of 20, gen3:215's 34 false closures
-            gone; multisession 3 → 4 of 5 within 1.25 × one session's; with the wheels, on 39 of
-            the 43 (those driven), 0.59 / 1.05 / 2.00 → 0.59 / 1.04 / 1.21 m, every target on all 39
+            gone; multisession 3 → 4 of 5 within 1.25 × one session's; with the wheels 0.60 / 1.21 /
+            2.00 → 0.59 / 1.02 / 1.21 m, 43 of 43
             (docs/generalization.md, the sixtieth and sixty-first steps). False: the link starts at the
             code-read place.
         confirmation_pinned_yaw: a loop closure turns the robot onto its place by the view's yaw relative to its

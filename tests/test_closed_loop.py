@@ -42,7 +42,8 @@ HARD_WORLDS = ["gen1:108", "gen1:127",  # a blank floor; sparse marks (generator
 WORLDS = DEVELOPMENT_WORLDS + HARD_WORLDS
 
 
-@pytest.fixture(scope="module", params=WORLDS)
+# one drive per world, its tests together on one pytest-xdist worker (pyproject.toml's addopts: --dist loadgroup)
+@pytest.fixture(scope="module", params=[pytest.param(world, marks=pytest.mark.xdist_group(world)) for world in WORLDS])
 def metrics(request, tmp_path_factory):
     out = tmp_path_factory.mktemp(request.param.replace(":", "_"))
     assert main(["drive", request.param, "--out", str(out)]) == 0

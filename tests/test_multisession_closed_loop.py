@@ -18,6 +18,9 @@ from scipy.spatial import cKDTree
 from neuroslam import NeuroSLAM
 from neuroslam.lab.cli import main
 
+# the drives are one module fixture: its tests together on one pytest-xdist worker (--dist loadgroup)
+pytestmark = pytest.mark.xdist_group("multisession_closed_loop")
+
 
 def _drive(out, *args):
     assert main(["drive", "carpark", *args, "--out", str(out)]) == 0

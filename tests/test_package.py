@@ -4,6 +4,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 import sim
 from sim.world import _worlds_directory
 
@@ -37,3 +39,14 @@ def test_world_data_is_found_through_the_package():
     for name in sim.builtin_worlds():
         assert (directory / f"{name}.xml").is_file()
         assert (directory / f"{name}.routes.json").is_file()
+
+
+@pytest.mark.xdist_group("grouping_probe")
+def test_a_test_group_stays_on_one_pytest_xdist_worker(request):
+    """pyproject's addopts run the suite under pytest-xdist's ``--dist loadgroup``: the tests that share one drive
+    (each closed-loop world, the multisession sessions) carry one ``xdist_group`` and run on one worker because
+    the worker adds the group to their node ids, by which the scheduler groups them. pytest 9.2 undid that without
+    a word (pytest-xdist#1386; every worker then drove every world): this fails where the group is lost."""
+    if not getattr(request.config.option, "loadgroup", False):
+        pytest.skip("not run by a pytest-xdist worker with --dist loadgroup (-n 0 runs in one process)")
+    assert request.node.nodeid.endswith("@grouping_probe")

@@ -172,37 +172,50 @@ def confirm_place(
     counted = []  # with offset: per window frame that counted, (pose, its places, whether it is evidence)
     if window_alternatives is None:
         window_alternatives = [()] * len(window_poses)
-    for pose, template, alternatives in zip(window_poses, window_templates, window_alternatives, strict=True):
-        places = experiences_of(int(template))
-        places = places[eligible[places]]
-        if len(places) == 0:
-            continue
-        dx, dy, dz = pose[:3] - now[:3]
-        mapped = compose(frames, np.array([dx, dy, dz, 0.0]))[:, :3]
-        gaps = np.linalg.norm(mapped[:, None, :2] - map_poses[None, places, :2], axis=2)
+    # a frame whose own view has no place says nothing
+    places, kept = _window_places(window_templates, window_alternatives, experiences_of, eligible, own_required=True)
+    if kept:
+        # every kept frame at once: where each hypothesis maps it (H, K), its view's places and all its places
+        # (its alternatives' too) flattened along one axis, each with the frame it belongs to
+        steps = window_poses[kept, :3] - now[:3]
+        distances = [math.hypot(dx, dy) for dx, dy, _ in steps]  # m, each frame's from the current one
+        c, s = np.cos(frames[:, 3]), np.sin(frames[:, 3])
+        mapped_x = frames[:, 0, None] + c[:, None] * steps[None, :, 0] - s[:, None] * steps[None, :, 1]
+        mapped_y = frames[:, 1, None] + s[:, None] * steps[None, :, 0] + c[:, None] * steps[None, :, 1]
+        mapped_z = frames[:, 2, None] + steps[None, :, 2]
+        mapped_xy = np.stack([mapped_x, mapped_y], axis=2)
+        own, own_frame, own_starts = _flatten([places[index][0] for index in kept])
+        every, every_frame, every_starts = _flatten([places[index][1] for index in kept])
+        gaps = np.linalg.norm(mapped_xy[:, own_frame] - map_poses[None, own, :2], axis=2)  # (H, own places)
         if local_reach:  # per hypothesis: the view's places near where it maps this frame
-            near = gaps <= 2 * tolerance + drift * math.hypot(dx, dy)
-            xy = map_poses[places, :2]
-            low = np.where(near[:, :, None], xy[None], np.inf).min(axis=1)
-            high = np.where(near[:, :, None], xy[None], -np.inf).max(axis=1)
-            extent = np.where(near.any(axis=1), np.hypot(*(high - low).T), 0.0)
-            evidence = extent <= 2 * tolerance  # (H,): for which hypotheses this view says where the robot is
+            near = gaps <= (2 * tolerance + drift * np.array(distances))[own_frame]
+            xy = map_poses[own, :2]
+            low = np.minimum.reduceat(np.where(near[:, :, None], xy[None], np.inf), own_starts, axis=1)
+            high = np.maximum.reduceat(np.where(near[:, :, None], xy[None], -np.inf), own_starts, axis=1)
+            spans = np.moveaxis(high - low, 2, 0)  # (2, H, K)
+            extent = np.where(np.logical_or.reduceat(near, own_starts, axis=1), np.hypot(*spans), 0.0)
+            evidence = extent <= 2 * tolerance  # (H, K): for which hypotheses each view says where the robot is
+            counts = np.ones(len(kept), dtype=bool)
         else:
-            reach = gaps.min(axis=0) <= radius  # where this frame could be
-            extent = np.ptp(map_poses[places[reach], :2], axis=0) if reach.any() else np.zeros(2)
-            if math.hypot(*extent) > 2 * tolerance and not along_path:
-                continue  # a view seen along many metres (or at several places) within reach says little
-            evidence = True
-        if len(alternatives):
-            places = np.unique(np.concatenate([places, *(experiences_of(int(other)) for other in alternatives)]))
-            places = places[eligible[places]]
-            gaps = np.linalg.norm(mapped[:, None, :2] - map_poses[None, places, :2], axis=2)
-        agree = _agree(mapped, gaps, map_poses[places, 2], tolerance, tolerance + climb_error * math.hypot(dx, dy))
-        agreeing = agree.any(axis=1) & evidence
-        support += agreeing
-        misfit += np.where(agreeing, np.where(agree, gaps, np.inf).min(axis=1, initial=np.inf), 0.0)
+            reach = gaps.min(axis=0) <= radius  # where each frame could be
+            xy = map_poses[own, :2]
+            low = np.minimum.reduceat(np.where(reach[:, None], xy, np.inf), own_starts, axis=0)
+            high = np.maximum.reduceat(np.where(reach[:, None], xy, -np.inf), own_starts, axis=0)
+            spans = np.where(np.logical_or.reduceat(reach, own_starts)[:, None], high - low, 0.0)
+            # a view seen along many metres (or at several places) within reach says little
+            counts = np.array([along_path or math.hypot(*span) <= 2 * tolerance for span in spans])
+            evidence = np.broadcast_to(counts, (len(hypotheses), len(kept)))
+        gaps = np.linalg.norm(mapped_xy[:, every_frame] - map_poses[None, every, :2], axis=2)  # (H, all places)
+        height_tolerances = tolerance + climb_error * np.array(distances)
+        agree = _agree(mapped_z[:, every_frame], gaps, map_poses[every, 2], tolerance, height_tolerances[every_frame])
+        agreeing = np.logical_or.reduceat(agree, every_starts, axis=1) & evidence & counts  # (H, K)
+        support = agreeing.sum(axis=1)
+        nearest = np.minimum.reduceat(np.where(agree, gaps, np.inf), every_starts, axis=1)
+        for column in np.where(agreeing, nearest, 0.0).T:  # frame by frame, in the window's order
+            misfit += column
         if offset is not None:
-            counted.append((pose, places, evidence))
+            counted = [(window_poses[index], places[index][1], bool(counts[k]) if not local_reach else evidence[:, k])
+                       for k, index in enumerate(kept) if counts[k]]
     confirmed = support >= matches
     if not (confirmed & within).any():
         return -1
@@ -254,19 +267,51 @@ def _window_offset(counted: list, best: int, frame: np.ndarray, now: np.ndarray,
         dx, dy, dz = pose[:3] - now[:3]
         mapped = compose(frame[None], np.array([dx, dy, dz, 0.0]))[0, :3]
         gaps = np.linalg.norm(map_poses[places, :2] - mapped[:2], axis=1)[None]
-        agree = _agree(mapped[None], gaps, map_poses[places, 2], tolerance,
+        agree = _agree(mapped[None, 2:3], gaps, map_poses[places, 2], tolerance,
                        tolerance + climb_error * math.hypot(dx, dy))[0]
         if agree.any():
             residuals.append(map_poses[places[np.argmin(np.where(agree, gaps[0], np.inf))], :3] - mapped)
     return np.median(np.array(residuals), axis=0)
 
 
-def _agree(mapped: np.ndarray, gaps: np.ndarray, heights: np.ndarray, tolerance: float,
-           height_tolerance: float) -> np.ndarray:
+def _agree(mapped_heights: np.ndarray, gaps: np.ndarray, heights: np.ndarray, tolerance: float,
+           height_tolerance: float | np.ndarray) -> np.ndarray:
     """(H, P) whether each of P places (``heights``, m) lies where each of H hypotheses maps a window frame
-    (``mapped``, (H, 3)): horizontally within ``tolerance`` (``gaps``, (H, P), m) and vertically within
-    ``height_tolerance`` (m)."""
-    return (gaps <= tolerance) & (np.abs(mapped[:, None, 2] - heights[None]) <= height_tolerance)
+    (``mapped_heights``, m, (H, 1), or (H, P): each place's own frame's): horizontally within ``tolerance``
+    (``gaps``, (H, P), m) and vertically within ``height_tolerance`` (m; one, or (P,))."""
+    return (gaps <= tolerance) & (np.abs(mapped_heights - heights[None]) <= height_tolerance)
+
+
+def _window_places(window_templates: np.ndarray, window_alternatives: Sequence[Sequence[int]],
+                   experiences_of: Callable[[int], np.ndarray],
+                   eligible: np.ndarray, *,
+                   own_required: bool) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[int]]:
+    """Per window frame, its view's eligible places and its places with its alternatives' (ids; the same array
+    where it has no alternatives), and the frames (indices) with places: with ``own_required``, places of its
+    own view (the alternatives of a frame without are not looked up), else any."""
+    places, kept = [], []
+    for index, (template, alternatives) in enumerate(zip(window_templates, window_alternatives, strict=True)):
+        own = experiences_of(int(template))
+        own = own[eligible[own]]
+        every = own
+        if own_required and not len(own):
+            places.append((own, own))
+            continue
+        if len(alternatives):
+            every = np.unique(np.concatenate([own, *(experiences_of(int(other)) for other in alternatives)]))
+            every = every[eligible[every]]
+        places.append((own, every))
+        if len(every):
+            kept.append(index)
+    return places, kept
+
+
+def _flatten(arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Non-empty id arrays laid end to end: the ids, the index of the array each came from, and where each
+    array starts (for ``ufunc.reduceat``)."""
+    lengths = np.array([len(array) for array in arrays])
+    return (np.concatenate(arrays), np.repeat(np.arange(len(arrays)), lengths),
+            np.concatenate([[0], np.cumsum(lengths)[:-1]]))
 
 
 def rival_shift_support(
@@ -308,24 +353,19 @@ def rival_shift_support(
     view: along a street whose look repeats every few metres, the window fits the place one period on as well
     as the one it confirms, though the current view's template may not hold that place.
     """
-    now = np.asarray(window_poses[-1], dtype=float)
-    shifts, owners, heights = [], [], []
-    for index, (pose, template, alternatives) in enumerate(zip(window_poses, window_templates, window_alternatives,
-                                                                   strict=True)):
-        places = experiences_of(int(template))
-        if len(alternatives):
-            places = np.unique(np.concatenate([places, *(experiences_of(int(other)) for other in alternatives)]))
-        places = places[eligible[places]]
-        if len(places) == 0:
-            continue
-        dx, dy, dz = np.asarray(pose[:3], dtype=float) - now[:3]
-        mapped = compose(frame[None], np.array([dx, dy, dz, 0.0]))[0, :3]
-        shifts.append(map_poses[places, :3] - mapped)
-        owners.append(np.full(len(places), index))
-        heights.append(np.full(len(places), tolerance + climb_error * math.hypot(dx, dy)))
-    if not shifts:
+    window_poses = np.asarray(window_poses, dtype=float)
+    now = window_poses[-1]
+    places, kept = _window_places(window_templates, window_alternatives, experiences_of, eligible,
+                                  own_required=False)
+    if not kept:
         return 0
-    vectors, owner, height_tolerance = np.concatenate(shifts), np.concatenate(owners), np.concatenate(heights)
+    steps = window_poses[kept, :3] - now[:3]
+    c, s = np.cos(frame[None, 3]), np.sin(frame[None, 3])
+    mapped = np.stack([frame[0] + c * steps[:, 0] - s * steps[:, 1], frame[1] + s * steps[:, 0] + c * steps[:, 1],
+                       frame[2] + steps[:, 2]], axis=1)  # (K, 3): where the hypothesis maps each frame
+    every, owner, _ = _flatten([places[index][1] for index in kept])
+    vectors = map_poses[every, :3] - mapped[owner]  # (N, 3): from the mapping of a frame to each of its places
+    height_tolerance = (tolerance + climb_error * np.array([math.hypot(dx, dy) for dx, dy, _ in steps]))[owner]
     shifted = frame[:3] + vectors  # where the shifted copy puts the current frame
     if odds is not None:
         winner = np.sum((frame[:2] - robot[:2]) ** 2)

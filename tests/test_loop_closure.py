@@ -449,6 +449,34 @@ def test_rival_shift_support_counts_frames_not_places():
                                tolerance=1.0, climb_error=0.0, distinct=1.0) == 0
 
 
+def test_a_frame_whose_own_view_has_no_place_is_not_evidence_but_its_other_matches_are_rivals():
+    """Four of the window's 20 frames matched best a view the map has no place of (template 999), the right
+    view second. The confirmation counts none of them (a view without a place says nothing, whatever else it
+    resembled): 16 frames agree, enough for 16 and not for 17. The rival test counts their other matches as
+    any frame's: a copy of the place 8 m on explains all 20 frames, as it would with no unknown view."""
+    from neuroslam.loop_closure import rival_shift_support
+
+    themap, odometry, templates, window, _current, eligible = _straight_revisit()
+    views = templates[window].copy()
+    unknown = [3, 7, 11, 15]  # window frames
+    views[unknown] = 999
+    alternatives = [(int(templates[window][k]),) if k in unknown else () for k in range(20)]
+    for matches, confirmed in ((16, True), (17, False)):
+        place = confirm_place(odometry[window], views, 0.0, themap.poses, themap.experiences_of, eligible,
+                              themap.poses[29], radius=5.0, tolerance=1.0, matches=matches,
+                              window_alternatives=alternatives, local_reach=True)
+        assert (place in (28, 29)) == confirmed
+
+    def repeated(template):  # every known view also 8 m on
+        own = themap.experiences_of(template)
+        return np.concatenate([own, own + 16]) if len(own) else own
+
+    frame = np.r_[themap.poses[29, :3], themap.poses[29, 3] - odometry[29, 3]]
+    assert rival_shift_support(odometry[window], views, alternatives, frame, themap.poses, repeated, eligible,
+                               themap.poses[29], reach=np.array([12.0, 12.0]), tolerance=1.0, climb_error=0.0,
+                               distinct=1.0) == 20
+
+
 @pytest.mark.parametrize("local_reach", [False, True])
 def test_the_slam_passes_its_local_reach_setting_to_the_confirmation(monkeypatch, local_reach):
     """``experience_map.confirmation_local_reach`` and ``confirmation_rival_shifts`` reach :func:`confirm_place`

@@ -49,6 +49,8 @@ def plot_report(
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
     from ..evaluation import align
 
@@ -87,9 +89,12 @@ def plot_report(
                              cmap="viridis", zorder=3)
         figure.colorbar(points, ax=top, label="estimated height (m)", shrink=0.7)
     segments = map_points[links] if len(links) else np.zeros((0, 2, 3))
-    for segment in segments:
-        top.plot(segment[:, 0], segment[:, 1], color="tab:blue", linewidth=0.6)
-        space.plot(segment[:, 0], segment[:, 1], segment[:, 2], color="tab:blue", linewidth=0.6)
+    # the map's links as one artist per view (thousands of single lines cost seconds to draw and to place the
+    # legend around)
+    top.add_collection(LineCollection(segments[:, :, :2], colors="tab:blue", linewidths=0.6))
+    space.add_collection3d(Line3DCollection(segments, colors="tab:blue", linewidths=0.6))
+    if len(segments):  # a collection widens the 3-D limits by itself only from matplotlib 3.10
+        space.auto_scale_xyz(segments[:, :, 0], segments[:, :, 1], segments[:, :, 2], had_data=True)
     top.scatter(map_points[:, 0], map_points[:, 1], s=2, color="tab:blue", label="experience map")
     side.plot(odometry_points[:, 0], odometry_points[:, 2], color="tab:orange", linewidth=0.8)
     side.scatter(map_points[:, 0], map_points[:, 2], s=2, color="tab:blue")

@@ -172,8 +172,8 @@ def confirm_place(
     counted = []  # with offset: per window frame that counted, (pose, its places, whether it is evidence)
     if window_alternatives is None:
         window_alternatives = [()] * len(window_poses)
-    # a frame whose own view has no place says nothing
-    places, kept = _window_places(window_templates, window_alternatives, experiences_of, eligible, own_required=True)
+    places = _window_places(window_templates, window_alternatives, experiences_of, eligible)
+    kept = [index for index, (own, _) in enumerate(places) if len(own)]  # a view without a place says nothing
     if kept:
         # every kept frame at once: where each hypothesis maps it (H, K), its view's places and all its places
         # (its alternatives' too) flattened along one axis, each with the frame it belongs to
@@ -243,11 +243,10 @@ def confirm_place(
         shift_reach = np.array([math.hypot(*correction[:2]) + margin, abs(correction[2]) + margin])
         # with rival_odds, near the last recognised place a copy one place on is the same evidence (see above)
         shift_distinct = 2 * tolerance if rival_odds is not None and radius <= 2 * tolerance else distinct
-        if rival_shift_support(window_poses, window_templates, window_alternatives, frames[best], map_poses,
-                               experiences_of, eligible, robot, reach=reach,
-                               shift_reach=None if rival_odds is not None else shift_reach,
-                               tolerance=tolerance, climb_error=climb_error, distinct=shift_distinct,
-                               odds=rival_odds, sigma=radius / 2) >= matches:
+        if _shift_support(window_poses, places, frames[best], map_poses, robot, reach=reach,
+                          shift_reach=None if rival_odds is not None else shift_reach, tolerance=tolerance,
+                          climb_error=climb_error, distinct=shift_distinct, odds=rival_odds,
+                          sigma=radius / 2) >= matches:
             return -1
     if offset is not None:  # the winner agrees on at least ``matches`` frames: the median is over them
         offset[:] = _window_offset(counted, best, frames[best], now, map_poses, tolerance, climb_error)
@@ -284,26 +283,28 @@ def _agree(mapped_heights: np.ndarray, gaps: np.ndarray, heights: np.ndarray, to
 
 def _window_places(window_templates: np.ndarray, window_alternatives: Sequence[Sequence[int]],
                    experiences_of: Callable[[int], np.ndarray],
-                   eligible: np.ndarray, *,
-                   own_required: bool) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[int]]:
+                   eligible: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     """Per window frame, its view's eligible places and its places with its alternatives' (ids; the same array
-    where it has no alternatives), and the frames (indices) with places: with ``own_required``, places of its
-    own view (the alternatives of a frame without are not looked up), else any."""
-    places, kept = [], []
+    where it has no alternatives, else sorted: ``experiences_of`` gives each view's in increasing order)."""
+    places, merged, owners = [], [], []
     for index, (template, alternatives) in enumerate(zip(window_templates, window_alternatives, strict=True)):
         own = experiences_of(int(template))
         own = own[eligible[own]]
-        every = own
-        if own_required and not len(own):
-            places.append((own, own))
-            continue
+        places.append((own, own))
         if len(alternatives):
-            every = np.unique(np.concatenate([own, *(experiences_of(int(other)) for other in alternatives)]))
-            every = every[eligible[every]]
-        places.append((own, every))
-        if len(every):
-            kept.append(index)
-    return places, kept
+            merged.extend([own, *(experiences_of(int(other)) for other in alternatives)])
+            owners.extend([index] * (len(alternatives) + 1))
+    if merged:  # every frame's union at once: one sort of (frame, place) keys
+        lengths = [len(ids) for ids in merged]
+        ids = np.concatenate(merged).astype(np.int64, copy=False)
+        frames = np.repeat(np.array(owners, dtype=np.int64), lengths)
+        keep = eligible[ids]
+        keys = np.unique(frames[keep] * len(eligible) + ids[keep])
+        frames, ids = np.divmod(keys, len(eligible))
+        bounds = np.searchsorted(frames, np.arange(len(places) + 1))
+        for index in set(owners):
+            places[index] = (places[index][0], ids[bounds[index]:bounds[index + 1]])
+    return places
 
 
 def _flatten(arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -354,9 +355,18 @@ def rival_shift_support(
     as the one it confirms, though the current view's template may not hold that place.
     """
     window_poses = np.asarray(window_poses, dtype=float)
+    places = _window_places(window_templates, window_alternatives, experiences_of, eligible)
+    return _shift_support(window_poses, places, frame, map_poses, robot, reach=reach, tolerance=tolerance,
+                          climb_error=climb_error, distinct=distinct, shift_reach=shift_reach, odds=odds, sigma=sigma)
+
+
+def _shift_support(window_poses: np.ndarray, places: list[tuple[np.ndarray, np.ndarray]], frame: np.ndarray,
+                   map_poses: np.ndarray, robot: np.ndarray, *, reach: np.ndarray, tolerance: float,
+                   climb_error: float, distinct: float, shift_reach: np.ndarray | None, odds: float | None,
+                   sigma: float) -> int:
+    """:func:`rival_shift_support` over the window's places (:func:`_window_places`)."""
     now = window_poses[-1]
-    places, kept = _window_places(window_templates, window_alternatives, experiences_of, eligible,
-                                  own_required=False)
+    kept = [index for index, (_, every) in enumerate(places) if len(every)]
     if not kept:
         return 0
     steps = window_poses[kept, :3] - now[:3]

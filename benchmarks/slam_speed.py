@@ -19,6 +19,12 @@ Run: ``python benchmarks/slam_speed.py [--frames N] [--templates 100 1000 10000]
 - whether the compiled loops run on the **vector units** (:mod:`neuroslam.compiled`);
 - the **alignment passes** per frame (each a pass over a few thousand pixels: a Gauss–Newton iteration or a
   cost), median and maximum, on the car park and on novel frames: the odometry's bounded work;
+- with ``--drive``, **the drive**: ``NeuroSLAM.step`` over the car park's whole two-lap drive (5,870 frames,
+  rendered first: about 1½ minutes more, 340 MB of frames), from an empty map as ``neuroslam drive`` runs
+  it: the mean ms over the first lap and over the second, whose views are familiar (the place confirmation
+  runs on nearly every frame, and the least-squares relaxation on each loop closure), and over the drive,
+  each also in calibration units; and the share of the drive's time spent confirming places
+  (:func:`neuroslam.loop_closure.confirm_place`, the rival test included);
 - each **component** with the map filled to each ``--templates`` count (random templates, experiences in a
   chain), and the least-squares relaxation's cost on the frame that closes a lap of that many experiences
   (it runs on loop-closure frames only).
@@ -60,6 +66,50 @@ def calibration_ms(repeats: int = 15) -> float:
                 total += k * 0.5
         samples.append(time.perf_counter() - started)
     return 1000 * min(samples)
+
+
+def drive_frames() -> tuple[list[np.ndarray], np.ndarray]:
+    """The car park's whole two-lap drive of its main route (160×120): every frame's image, and the laps
+    completed at each frame."""
+    import sim
+
+    images, laps = [], []
+    with sim.ScriptedDrive("carpark", laps=2, seed=0) as drive:
+        for frame in drive:
+            images.append(frame.image)
+            laps.append(frame.lap)
+    return images, np.array(laps)
+
+
+def drive_steps(images: list[np.ndarray], laps: np.ndarray) -> tuple[float, float, float, float]:
+    """Mean ms of ``NeuroSLAM.step`` over the drive's first lap, its second and the whole drive (from an empty
+    map, the first frame left out), and the share of the time in the place confirmation."""
+    import neuroslam.slam as slam_module
+
+    confirm_place = slam_module.confirm_place
+    confirming = [0.0]
+
+    def timed(*args, **kwargs):  # the confirmation's own time, the rival test included
+        started = time.perf_counter()
+        try:
+            return confirm_place(*args, **kwargs)
+        finally:
+            confirming[0] += time.perf_counter() - started
+
+    slam = NeuroSLAM(presets.get("sim"))
+    timings = []
+    slam_module.confirm_place = timed
+    try:
+        for k, image in enumerate(images):
+            started = time.perf_counter()
+            slam.step(image, 0.1 * (k + 1))
+            timings.append(time.perf_counter() - started)
+    finally:
+        slam_module.confirm_place = confirm_place
+    timings = 1000 * np.array(timings[1:])
+    second = laps[1:] >= 1
+    return (float(timings[~second].mean()), float(timings[second].mean()), float(timings.mean()),
+            confirming[0] * 1000 / timings.sum())
 
 
 def frames(count: int, width: int = 160, height: int = 120) -> list[np.ndarray]:
@@ -182,8 +232,9 @@ def closure_solve_ms(experiences: int) -> tuple[float, float, int]:
     return 1000 * first, 1000 * (time.perf_counter() - started), frames
 
 
-def headline(count: int) -> None:
-    """The calibration, the typical step, the worst case, the resolutions and the passes (see the module)."""
+def headline(count: int, drive: bool = False) -> None:
+    """The calibration, the typical step, the worst case, the resolutions, with ``drive`` the drive, and the
+    passes (see the module)."""
     unit = calibration_ms()
 
     def line(label: str, ms: float, extra: str = "") -> None:
@@ -207,6 +258,14 @@ def headline(count: int) -> None:
         timings, _ = (typical, None) if width == 160 else steps(frames(count + 1, width, height), 1000)
         line(f"{width}x{height} median", float(np.median(timings)),
              f"  {np.median(timings) / typical_ms:5.2f} x 160x120")
+    if drive:
+        images, laps = drive_frames()
+        first, second, whole, confirming = drive_steps(images, laps)
+        print(f"the drive (car park, 2 laps, {len(images):,d} frames from an empty map), mean")
+        line("first lap", first)
+        line("second lap", second, f"  {second / typical_ms:5.2f} x typical")
+        line("whole drive", whole, f"  {whole / typical_ms:5.2f} x typical")
+        print(f"  {'confirming places':<46}{100 * confirming:8.1f} % of the drive's time")
     unit_after = calibration_ms()
     print(f"calibration workload: {unit:.2f} ms before, {unit_after:.2f} ms after (the first is the unit of "
           "the 'x cal.' column)")
@@ -229,8 +288,10 @@ def main() -> None:
     parser.add_argument("--templates", type=int, nargs="+", default=[100, 1000, 10000],
                         help="map sizes of the components' table (default: 100 1000 10000)")
     parser.add_argument("--quick", action="store_true", help="the headline figures alone (no components' table)")
+    parser.add_argument("--drive", action="store_true",
+                        help="also time the car park's whole two-lap drive, lap by lap (about 1 1/2 minutes more)")
     args = parser.parse_args()
-    headline(args.frames)
+    headline(args.frames, drive=args.drive)
     if args.quick:
         return
     results = {n: measure(n, args.frames) for n in args.templates}

@@ -39,3 +39,31 @@ def test_without_ground_truth_the_report_draws_the_estimate_and_says_there_is_no
     labels = [text.get_text() for text in top.get_legend().get_texts()]
     assert "SLAM" in labels and not any("ground truth" in label for label in labels)
     assert not errors.axison and "no ground truth" in errors.texts[0].get_text()
+
+
+
+def _link_lines(axes):
+    """The line collections of ``axes`` (the map's links), 2-D or 3-D."""
+    from matplotlib.collections import LineCollection
+
+    return [collection for collection in axes.collections if isinstance(collection, LineCollection)]
+
+
+def test_the_map_links_are_drawn_in_the_top_and_3d_views():
+    """Each link of the map is one segment between its two experiences, in the top view and in 3-D (without
+    ground truth the map is drawn where it is, not aligned)."""
+    arguments, _ = _run()
+    _figure, (top, space, _ids, _errors, _side) = plot_report(truth=None, **arguments)
+    segments = arguments["experiences"][arguments["links"]][:, :, :3]
+    (flat,), (solid,) = _link_lines(top), _link_lines(space)
+    np.testing.assert_array_equal(np.array(flat.get_segments()), segments[:, :, :2])
+    np.testing.assert_array_equal(np.array(solid._segments3d), segments)
+
+
+def test_a_map_without_links_is_drawn():
+    """A run too short to link two experiences (one experience, no links) still gets its report."""
+    arguments, truth = _run(frames=4)
+    arguments.update(experiences=arguments["estimate"][:1], experience_frames=np.array([0]),
+                     links=np.zeros((0, 2), dtype=int))
+    _figure, (top, space, _ids, _errors, _side) = plot_report(truth=truth, **arguments)
+    assert not _link_lines(top) and not _link_lines(space)

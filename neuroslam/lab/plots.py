@@ -91,9 +91,10 @@ def plot_report(
     segments = map_points[links] if len(links) else np.zeros((0, 2, 3))
     # the map's links as one artist per view (thousands of single lines cost seconds to draw and to place the
     # legend around)
-    top.add_collection(LineCollection(segments[:, :, :2], colors="tab:blue", linewidths=0.6))
-    space.add_collection3d(Line3DCollection(segments, colors="tab:blue", linewidths=0.6))
-    if len(segments):  # a collection widens the 3-D limits by itself only from matplotlib 3.10
+    if len(segments):  # (an empty 3-D collection fails to draw)
+        top.add_collection(LineCollection(segments[:, :, :2], colors="tab:blue", linewidths=0.6))
+        space.add_collection3d(Line3DCollection(segments, colors="tab:blue", linewidths=0.6))
+        # a collection widens the 3-D limits by itself only from matplotlib 3.10
         space.auto_scale_xyz(segments[:, :, 0], segments[:, :, 1], segments[:, :, 2], had_data=True)
     top.scatter(map_points[:, 0], map_points[:, 1], s=2, color="tab:blue", label="experience map")
     side.plot(odometry_points[:, 0], odometry_points[:, 2], color="tab:orange", linewidth=0.8)

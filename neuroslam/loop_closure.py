@@ -204,17 +204,17 @@ def confirm_place(
             spans = np.where(np.logical_or.reduceat(reach, own_starts)[:, None], high - low, 0.0)
             # a view seen along many metres (or at several places) within reach says little
             counts = np.array([along_path or math.hypot(*span) <= 2 * tolerance for span in spans])
-            evidence = np.broadcast_to(counts, (len(hypotheses), len(kept)))
+            evidence = np.broadcast_to(counts, (len(hypotheses), len(kept)))  # a frame that says little: none
         gaps = np.linalg.norm(mapped_xy[:, every_frame] - map_poses[None, every, :2], axis=2)  # (H, all places)
         height_tolerances = tolerance + climb_error * np.array(distances)
         agree = _agree(mapped_z[:, every_frame], gaps, map_poses[every, 2], tolerance, height_tolerances[every_frame])
-        agreeing = np.logical_or.reduceat(agree, every_starts, axis=1) & evidence & counts  # (H, K)
+        agreeing = np.logical_or.reduceat(agree, every_starts, axis=1) & evidence  # (H, K)
         support = agreeing.sum(axis=1)
         nearest = np.minimum.reduceat(np.where(agree, gaps, np.inf), every_starts, axis=1)
         for column in np.where(agreeing, nearest, 0.0).T:  # frame by frame, in the window's order
             misfit += column
         if offset is not None:
-            counted = [(window_poses[index], places[index][1], bool(counts[k]) if not local_reach else evidence[:, k])
+            counted = [(window_poses[index], places[index][1], evidence[:, k] if local_reach else True)
                        for k, index in enumerate(kept) if counts[k]]
     confirmed = support >= matches
     if not (confirmed & within).any():

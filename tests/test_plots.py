@@ -41,7 +41,6 @@ def test_without_ground_truth_the_report_draws_the_estimate_and_says_there_is_no
     assert not errors.axison and "no ground truth" in errors.texts[0].get_text()
 
 
-
 def _link_lines(axes):
     """The line collections of ``axes`` (the map's links), 2-D or 3-D."""
     from matplotlib.collections import LineCollection

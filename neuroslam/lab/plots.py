@@ -88,10 +88,10 @@ def plot_report(
         points = top.scatter(estimate_points[:, 0], estimate_points[:, 1], c=estimate_points[:, 2], s=3,
                              cmap="viridis", zorder=3)
         figure.colorbar(points, ax=top, label="estimated height (m)", shrink=0.7)
-    segments = map_points[links] if len(links) else np.zeros((0, 2, 3))
     # the map's links as one artist per view (thousands of single lines cost seconds to draw and to place the
-    # legend around)
-    if len(segments):  # (an empty 3-D collection fails to draw)
+    # legend around); none without links (an empty 3-D collection fails to draw)
+    if len(links):
+        segments = map_points[links]
         top.add_collection(LineCollection(segments[:, :, :2], colors="tab:blue", linewidths=0.6))
         space.add_collection3d(Line3DCollection(segments, colors="tab:blue", linewidths=0.6))
         # a collection widens the 3-D limits by itself only from matplotlib 3.10

@@ -171,6 +171,38 @@ def test_visual_profiles():
         Simulation(world, quality="ultra")
 
 
+def test_fast_profile_draws_planes_on_a_coarse_grid_with_the_same_frames(monkeypatch):
+    import mujoco
+
+    import sim.simulation as simulation_module
+
+    world = sim.load_world("gen3:133")  # its ground plane: 400 m across, a 1 m render grid
+    start = (-9.9, 0.0, 6.08, math.pi)  # on the open top deck, the land at the horizon in view
+    images, spacings, fast = {}, {}, simulation_module.FAST_PLANE_GRID_CELLS
+    for cells in (fast, 10**9):  # 10**9 cells: the world's own grid
+        monkeypatch.setattr(simulation_module, "FAST_PLANE_GRID_CELLS", cells)
+        with Simulation(world, start=start) as simulation:
+            ground = simulation.model.geom("ground0")
+            spacings[cells] = float(ground.size[2])
+            images[cells] = simulation.render(noise=False)
+            ground.pos[2] = -1000.0  # the land out of sight: the frame must change, or the test shows nothing
+            mujoco.mj_forward(simulation.model, simulation.data)
+            assert np.any(simulation.render(noise=False) != images[cells])
+    assert spacings == {fast: 400.0 / fast, 10**9: 1.0}
+    # the lights are directional: per-vertex lighting is the same on any grid of a flat plane
+    np.testing.assert_array_equal(images[fast], images[10**9])
+    with Simulation(world, quality="high") as simulation:
+        assert simulation.model.geom("ground0").size[2] == 1.0
+
+    model = mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><geom name='infinite' type='plane' size='0 0 0.05'/>"
+        "<geom name='finite' type='plane' size='5 2 0.01'/><geom name='coarse' type='plane' size='5 5 3'/>"
+        "</worldbody></mujoco>")
+    simulation_module.coarsen_plane_grids(model, 20)
+    assert [float(model.geom(name).size[2]) for name in ("infinite", "finite", "coarse")] == \
+        pytest.approx([0.05, 0.5, 3.0])
+
+
 @pytest.mark.parametrize("seed, digest", [(0, "2b6271ce38489216"), (5, "61aa8c1daad186d3"), (101, "f2f1d391e96642e8")])
 def test_generator_version_1_stays_byte_for_byte_what_gen_seed_was(seed, digest):
     # the digests of gen:SEED's MJCF as the generator wrote it before version 2 (commit 9df86ae): a

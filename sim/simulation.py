@@ -205,6 +205,33 @@ def compose_model(world: World, robot: RobotConfig, camera: CameraConfig, qualit
     return model
 
 
+# a geom group the renderer's scene option leaves out (MuJoCo shows groups 0-2 by default): geoms outside
+# the view are moved there for one scene update
+CULLED_GEOM_GROUP = 5
+
+
+def view_frustum_normals(fovy: float, aspect: float) -> np.ndarray:
+    """The inward unit normals, in the camera's frame (x right, y up, looking along -z), of the four side
+    planes of a perspective view with vertical field of view ``fovy`` (degrees) and width/height ``aspect``,
+    and of the plane through the camera facing forward: (5, 3). A point p is inside the view's pyramid where
+    every normal · p ≥ 0."""
+    vertical = math.radians(fovy) / 2
+    horizontal = math.atan(math.tan(vertical) * aspect)
+    ch, sh, cv, sv = math.cos(horizontal), math.sin(horizontal), math.cos(vertical), math.sin(vertical)
+    return np.array([[-ch, 0.0, -sh], [ch, 0.0, -sh], [0.0, -cv, -sv], [0.0, cv, -sv], [0.0, 0.0, -1.0]])
+
+
+def geoms_outside_view(positions: np.ndarray, radii: np.ndarray, camera_position: np.ndarray,
+                       camera_matrix: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """Which geoms lie wholly outside a camera's view: (n,) bool, True where a geom's bounding sphere
+    (``positions`` (n, 3) m in the world, ``radii`` (n,) m) is farther than its radius beyond one of the
+    view's planes (:func:`view_frustum_normals`); the camera at ``camera_position`` (3,) m with orientation
+    ``camera_matrix`` (9,) row-major, its columns the camera's axes. Conservative: the near and far planes
+    are not used, and a zero radius (MuJoCo's for planes, which are unbounded) is never outside."""
+    in_camera = (positions - camera_position) @ np.reshape(camera_matrix, (3, 3))
+    return (radii > 0) & np.any(in_camera @ normals.T < -radii[:, None], axis=1)
+
+
 def coarsen_plane_grids(model: mujoco.MjModel, cells: int) -> None:
     """Widen each finite plane's render-grid spacing (its third size, m) so that the grid has at most
     ``cells`` cells along either side; planes already coarser and infinite planes (a zero size) are left.
@@ -261,6 +288,13 @@ class Simulation:
         self._robot_bodies = {int(b) for b in np.flatnonzero(self.model.body_rootid == self._body)}
         self._collidable = (self.model.geom_contype != 0) | (self.model.geom_conaffinity != 0)
         self._cameras = [self.model.camera(f"robot/view{i}").id for i in range(len(camera.view_yaws))]
+        # culling is exact only where nothing outside the view reaches the frame: no shadows, no reflections
+        self._cull = quality == "fast" and not np.any(self.model.mat_reflectance > 0)
+        self._frustum_normals = {view: view_frustum_normals(float(self.model.cam_fovy[view]),
+                                                            camera.view_width / camera.height)
+                                 for view in self._cameras}
+        self._scene_option = mujoco.MjvOption()  # MuJoCo's default: geom groups 0-2 shown
+        self._scene_option.geomgroup[CULLED_GEOM_GROUP] = 0
         if start is None:
             route = world.route()
             x, y, z = route.waypoints[0]
@@ -416,10 +450,25 @@ class Simulation:
                 ) from None
         views = []
         for camera in self._cameras:
-            self._renderer.update_scene(self.data, camera=camera)
+            self._update_scene(camera)
             views.append(self._renderer.render())
         image = views[0].copy() if len(views) == 1 else np.concatenate(views, axis=1)
         return self.camera.add_noise(image, self.camera_rng) if noise else image
+
+    def _update_scene(self, camera: int) -> None:
+        """Fill the renderer's scene for one camera, leaving out the geoms wholly outside its view (fast
+        profile): they would draw no pixel, but each costs a software rasteriser its vertices and state."""
+        if not self._cull:
+            self._renderer.update_scene(self.data, camera=camera, scene_option=self._scene_option)
+            return
+        outside = geoms_outside_view(self.data.geom_xpos, self.model.geom_rbound, self.data.cam_xpos[camera],
+                                     self.data.cam_xmat[camera], self._frustum_normals[camera])
+        groups = self.model.geom_group.copy()
+        self.model.geom_group[outside] = CULLED_GEOM_GROUP
+        try:
+            self._renderer.update_scene(self.data, camera=camera, scene_option=self._scene_option)
+        finally:
+            self.model.geom_group[:] = groups
 
     def warnings(self) -> dict[str, int]:
         """MuJoCo warnings raised so far, by name (empty when none)."""

@@ -203,6 +203,47 @@ def test_fast_profile_draws_planes_on_a_coarse_grid_with_the_same_frames(monkeyp
         pytest.approx([0.05, 0.5, 3.0])
 
 
+@pytest.mark.parametrize("world, camera", [("carpark", sim.CameraConfig()),
+                                           ("urban", sim.CameraConfig(width=256, height=64, panoramic=True))])
+def test_fast_profile_leaves_out_geoms_outside_the_view_with_the_same_frames(world, camera):
+    import itertools
+
+    import mujoco
+
+    drive = sim.ScriptedDrive(world, camera=camera, max_frames=200)
+    simulation = drive.simulation
+    views = [simulation.model.camera(f"robot/view{view}").id for view in range(len(camera.view_yaws))]
+    every_geom = mujoco.Renderer(simulation.model, camera.height, camera.view_width)
+    with drive:
+        for _ in itertools.islice(drive, 0, 180, 30):  # a pose every 3 s along the route
+            image = simulation.render(noise=False)
+            drawn = []
+            for view in views:
+                every_geom.update_scene(simulation.data, camera=view)
+                drawn.append(every_geom.render())
+            # the last view's scenes: the simulation's left geoms out, and drew the same pixels
+            assert simulation._renderer.scene.ngeom < every_geom.scene.ngeom
+            np.testing.assert_array_equal(image, np.concatenate(drawn, axis=1))
+    every_geom.close()
+
+
+def test_geoms_outside_view():
+    from sim.simulation import geoms_outside_view, view_frustum_normals
+
+    normals = view_frustum_normals(90.0, 1.0)  # 45° half-angles both ways
+    camera_matrix = np.eye(3).ravel()  # at the origin looking along -z
+    positions = np.array([[0, 0, -5], [0, 0, 5], [7, 0, -5], [5.5, 0, -5], [0, 5.5, -5], [0, -7, -5], [0, 0, 5]])
+    radii = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0])
+    # ahead; behind; 2 m beyond the right edge (1.41 m from its plane); touching the right and top edges;
+    # beyond the bottom; a zero radius (an unbounded plane) behind
+    assert geoms_outside_view(positions, radii, np.zeros(3), camera_matrix, normals).tolist() == \
+        [False, True, True, False, False, True, False]
+    # its columns the camera's axes in the world: x = -y, y = +z (up), z = -x: looking along +x
+    turned = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]).ravel()
+    assert geoms_outside_view(np.array([[5.0, 0, 0], [-5.0, 0, 0]]), np.ones(2), np.zeros(3), turned,
+                              normals).tolist() == [False, True]
+
+
 @pytest.mark.parametrize("seed, digest", [(0, "2b6271ce38489216"), (5, "61aa8c1daad186d3"), (101, "f2f1d391e96642e8")])
 def test_generator_version_1_stays_byte_for_byte_what_gen_seed_was(seed, digest):
     # the digests of gen:SEED's MJCF as the generator wrote it before version 2 (commit 9df86ae): a

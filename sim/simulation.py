@@ -150,7 +150,8 @@ HIGH_SHADOW_SIZE = 1024
 # grid cells along each side of a finite plane in the fast profile. MuJoCo draws a plane as a grid of quads
 # spaced its third size apart, to refine per-vertex lighting; the generated worlds' 400 m ground at 1 m
 # spacing (capped by MuJoCo) cost Mesa's llvmpipe 7-8 ms a 160 x 120 frame, half of those worlds' render
-# time, for frames that are the same byte for byte at 20 cells a side (their lights are directional)
+# time. At 20 cells a side the lighting is the same (their lights are directional); only where the grid's
+# triangle edges fall moves, which changes a few single pixels in a drive
 FAST_PLANE_GRID_CELLS = 20
 
 

@@ -49,12 +49,13 @@ def plane_grids(world: str, frames: int) -> tuple[float, float, int, int] | None
     differing pixels' count; None for a world without a finite plane."""
     drive = sim.ScriptedDrive(world, speed=1.5, max_frames=20 * frames + 10)
     simulation = drive.simulation
-    planes = (simulation.model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE) & (simulation.model.geom_size[:, 0] > 0)
-    if not planes.any():
+    # the high profile keeps the world's grids; the geoms are in one order
+    own_sizes = compose_model(drive.world, simulation.robot, simulation.camera, "high").geom_size[:, 2]
+    if np.array_equal(own_sizes, simulation.model.geom_size[:, 2]):  # no plane the fast profile coarsened
         drive.close()
         return None
-    own = copy.deepcopy(simulation.model)  # the high profile keeps the world's grids; the geoms are in one order
-    own.geom_size[:, 2] = compose_model(drive.world, simulation.robot, simulation.camera, "high").geom_size[:, 2]
+    own = copy.deepcopy(simulation.model)
+    own.geom_size[:, 2] = own_sizes
     height, width = simulation.camera.height, simulation.camera.view_width
     renderers = {"own": mujoco.Renderer(own, height, width), "fast": mujoco.Renderer(simulation.model, height, width)}
     times: dict[str, list[float]] = {name: [] for name in renderers}
